@@ -1,0 +1,8 @@
+//! luz: a physically based path tracer with two interchangeable
+//! ray-intersection backends (Embree through FFI, and a native Rust BVH)
+//! feeding one Monte Carlo integrator.
+
+pub mod accel;
+pub mod math;
+pub mod sampling;
+pub mod scene;

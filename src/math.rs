@@ -1,0 +1,322 @@
+//! Vector types, rays, bounding boxes, orthonormal frames and the
+//! floating-point error bounds that keep secondary rays off the surface they
+//! leave (pbrt-v4, "Managing Rounding Error").
+
+pub use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
+
+/// Linear RGB colour (Rec.709 primaries).
+pub type Rgb = Vec3;
+
+/// A ray `origin + t * dir` valid for `t` in the open interval `(t_min, t_max)`.
+///
+/// `dir` need not be normalised; every backend reports `t` in units of `dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub t_min: f32,
+    pub t_max: f32,
+}
+
+impl Ray {
+    pub fn new(origin: Vec3, dir: Vec3) -> Self {
+        Self {
+            origin,
+            dir,
+            t_min: 0.0,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    pub fn segment(origin: Vec3, dir: Vec3, t_max: f32) -> Self {
+        Self {
+            origin,
+            dir,
+            t_min: 0.0,
+            t_max,
+        }
+    }
+
+    #[inline]
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.origin + t * self.dir
+    }
+}
+
+/// Axis-aligned bounding box. The empty box has `min > max`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Aabb {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn new(min: Vec3, max: Vec3) -> Self {
+        Self { min, max }
+    }
+
+    pub fn from_points(points: &[Vec3]) -> Self {
+        points.iter().fold(Self::EMPTY, |b, &p| b.grow(p))
+    }
+
+    #[inline]
+    pub fn grow(self, p: Vec3) -> Self {
+        Self {
+            min: self.min.min(p),
+            max: self.max.max(p),
+        }
+    }
+
+    #[inline]
+    pub fn union(self, o: Aabb) -> Self {
+        Self {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    #[inline]
+    pub fn centroid(&self) -> Vec3 {
+        0.5 * (self.min + self.max)
+    }
+
+    #[inline]
+    pub fn extent(&self) -> Vec3 {
+        (self.max - self.min).max(Vec3::ZERO)
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.cmpgt(self.max).any()
+    }
+
+    pub fn is_finite(&self) -> bool {
+        self.min.is_finite() && self.max.is_finite()
+    }
+
+    /// Half the surface area (the SAH only needs ratios).
+    #[inline]
+    pub fn half_area(&self) -> f32 {
+        let e = self.extent();
+        e.x * e.y + e.y * e.z + e.z * e.x
+    }
+}
+
+/// Orthonormal frame with `n` as local +z.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    /// Branchless construction of Duff et al., "Building an Orthonormal
+    /// Basis, Revisited" (JCGT 2017). `n` must be normalised.
+    pub fn from_normal(n: Vec3) -> Self {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Self { s, t, n }
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        v.x * self.s + v.y * self.t + v.z * self.n
+    }
+
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+}
+
+/// Higham's bound `n·u / (1 − n·u)` on the relative error of `n` chained
+/// f32 operations (pbrt-v4 `gamma`).
+#[inline]
+pub const fn gamma(n: u32) -> f32 {
+    let nu = n as f32 * (f32::EPSILON * 0.5);
+    nu / (1.0 - nu)
+}
+
+#[inline]
+pub fn next_float_up(v: f32) -> f32 {
+    if v.is_infinite() && v > 0.0 {
+        return v;
+    }
+    let v = if v == -0.0 { 0.0 } else { v };
+    let bits = v.to_bits();
+    let bits = if v >= 0.0 { bits + 1 } else { bits - 1 };
+    f32::from_bits(bits)
+}
+
+#[inline]
+pub fn next_float_down(v: f32) -> f32 {
+    if v.is_infinite() && v < 0.0 {
+        return v;
+    }
+    let v = if v == 0.0 { -0.0 } else { v };
+    let bits = v.to_bits();
+    let bits = if v > 0.0 { bits - 1 } else { bits + 1 };
+    f32::from_bits(bits)
+}
+
+/// Origin for a ray leaving a surface point `p` (with absolute error bound
+/// `p_err` per axis) in direction `w`: pushed along the geometric normal `n`
+/// just past the error box, on the side `w` points to, then rounded away
+/// from `p` (pbrt-v4 `OffsetRayOrigin`). Every shape, on every backend,
+/// spawns its secondary rays through this one function.
+#[inline]
+pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    let d = n.abs().dot(p_err);
+    let mut offset = d * n;
+    if w.dot(n) < 0.0 {
+        offset = -offset;
+    }
+    let po = p + offset;
+    let round = |po: f32, off: f32| {
+        if off > 0.0 {
+            next_float_up(po)
+        } else if off < 0.0 {
+            next_float_down(po)
+        } else {
+            po
+        }
+    };
+    Vec3::new(
+        round(po.x, offset.x),
+        round(po.y, offset.y),
+        round(po.z, offset.z),
+    )
+}
+
+/// Ray from a surface point towards direction `w`.
+#[inline]
+pub fn spawn_ray(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Ray {
+    Ray::new(offset_ray_origin(p, p_err, n, w), w)
+}
+
+/// Shadow ray from a surface point to a point `to` (itself on a surface with
+/// error `to_err` and normal `to_n`), stopping just short of it.
+#[inline]
+pub fn spawn_ray_to(p: Vec3, p_err: Vec3, n: Vec3, to: Vec3, to_err: Vec3, to_n: Vec3) -> Ray {
+    let from = offset_ray_origin(p, p_err, n, to - p);
+    let to = offset_ray_origin(to, to_err, to_n, from - to);
+    const SHADOW_EPSILON: f32 = 1.0 - 1e-4;
+    Ray::segment(from, to - from, SHADOW_EPSILON)
+}
+
+/// Reflection of `wo` (pointing away from the surface) about `n`.
+#[inline]
+pub fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
+    -wo + 2.0 * wo.dot(n) * n
+}
+
+/// Refraction of `wo` (pointing away from the surface, on the side `n`
+/// points to) into the medium below, with `eta` = η_below / η_above.
+/// `None` on total internal reflection.
+#[inline]
+pub fn refract(wo: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = wo.dot(n);
+    let sin2_i = (1.0 - cos_i * cos_i).max(0.0);
+    let sin2_t = sin2_i / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some(-wo / eta + (cos_i / eta - cos_t) * n)
+}
+
+/// Unpolarised Fresnel reflectance of a dielectric interface for light
+/// arriving with cosine `cos_i` (> 0, on the side of the normal) and
+/// `eta` = η_transmitted / η_incident.
+#[inline]
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - cos_i * cos_i) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).max(0.0).sqrt();
+    let r_parl = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    let r_perp = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    0.5 * (r_parl * r_parl + r_perp * r_perp)
+}
+
+/// Rec.709 luminance.
+#[inline]
+pub fn luminance(c: Rgb) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frame_is_orthonormal_for_every_octant_and_poles() {
+        let normals = [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(1.0, -2.0, 3.0).normalize(),
+            Vec3::new(-1e-7, 1e-7, -1.0).normalize(),
+        ];
+        for n in normals {
+            let f = Frame::from_normal(n);
+            assert!((f.s.length() - 1.0).abs() < 1e-5, "{n}");
+            assert!((f.t.length() - 1.0).abs() < 1e-5);
+            assert!(f.s.dot(f.t).abs() < 1e-5);
+            assert!(f.s.dot(n).abs() < 1e-5);
+            let v = Vec3::new(0.3, -0.4, 0.5);
+            assert!((f.to_local(f.to_world(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn offset_origin_leaves_the_error_box_on_the_side_of_w() {
+        for scale in [1e-4f32, 1.0, 1e4, 1e6] {
+            let p = Vec3::new(scale, -scale, 0.5 * scale);
+            let err = p.abs() * gamma(7);
+            let n = Vec3::new(0.0, 1.0, 0.0);
+            let up = offset_ray_origin(p, err, n, Vec3::new(0.1, 1.0, 0.0));
+            let down = offset_ray_origin(p, err, n, Vec3::new(0.1, -1.0, 0.0));
+            assert!(up.y > p.y + err.y * 0.999, "scale {scale}");
+            assert!(down.y < p.y - err.y * 0.999, "scale {scale}");
+        }
+    }
+
+    #[test]
+    fn fresnel_limits() {
+        assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-4);
+        assert!((fresnel_dielectric(0.0, 1.5) - 1.0).abs() < 1e-6);
+        // Inside glass beyond the critical angle: total internal reflection.
+        assert_eq!(fresnel_dielectric(0.3, 1.0 / 1.5), 1.0);
+        assert_eq!(fresnel_dielectric(1.0, 1.0), 0.0);
+    }
+
+    #[test]
+    fn refraction_obeys_snell() {
+        let wo = Vec3::new(0.6, 0.8, 0.0);
+        let wt = refract(wo, Vec3::Y, 1.5).unwrap();
+        let sin_i = 0.6;
+        let sin_t = wt.x.abs() / wt.length();
+        assert!((sin_i - 1.5 * sin_t).abs() < 1e-5);
+        assert!(wt.y < 0.0);
+        assert!(refract(Vec3::new(0.9, 0.2, 0.0).normalize(), Vec3::Y, 1.0 / 1.5).is_none());
+    }
+
+    #[test]
+    fn next_float_steps_across_zero() {
+        assert!(next_float_up(0.0) > 0.0);
+        assert!(next_float_down(0.0) < 0.0);
+        assert!(next_float_up(-0.0) > 0.0);
+        assert_eq!(next_float_up(1.0), 1.0 + f32::EPSILON);
+    }
+}

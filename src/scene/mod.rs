@@ -1,0 +1,151 @@
+//! The scene model: immutable plain data built by `load` from a TOML file
+//! (or directly, in tests) and shared by every backend and the integrator.
+
+pub mod camera;
+pub mod light;
+pub mod material;
+pub mod shape;
+pub mod texture;
+
+pub use camera::Camera;
+pub use light::{LightSampler, PointLight};
+pub use material::Material;
+pub use shape::{Geometry, PrimHit, SurfacePoint};
+pub use texture::{Texture, UvTransform};
+
+use crate::accel::Hit;
+use crate::math::{Ray, Rgb, Vec3};
+
+/// One shape of the scene; its index in `Scene::shapes` is its `geom` id.
+#[derive(Clone, Debug)]
+pub struct Shape {
+    pub geometry: Geometry,
+    pub material: u32,
+    /// Also sample this emitter by next-event estimation.
+    pub nee: bool,
+    pub uv_transform: UvTransform,
+}
+
+impl Shape {
+    pub fn new(geometry: Geometry, material: u32) -> Self {
+        Self {
+            geometry,
+            material,
+            nee: false,
+            uv_transform: UvTransform::default(),
+        }
+    }
+}
+
+/// Integrator settings a scene file may set and the command line override.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub spp: u32,
+    /// Maximum number of path segments, camera segment included (Mitsuba's
+    /// `max_depth`): 1 = emitters seen directly, 2 = direct lighting, ...
+    pub max_depth: u32,
+    pub seed: u64,
+    pub russian_roulette: bool,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            spp: 16,
+            max_depth: 64,
+            seed: 0,
+            russian_roulette: true,
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub camera: Camera,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    pub shapes: Vec<Shape>,
+    pub point_lights: Vec<PointLight>,
+    /// Constant radiance arriving from infinitely far away.
+    pub environment: Option<Rgb>,
+    pub lights: LightSampler,
+    pub render: RenderSettings,
+}
+
+impl Scene {
+    /// Assembles a scene and builds its light sampler.
+    pub fn new(
+        camera: Camera,
+        materials: Vec<Material>,
+        textures: Vec<Texture>,
+        shapes: Vec<Shape>,
+        point_lights: Vec<PointLight>,
+        environment: Option<Rgb>,
+        render: RenderSettings,
+    ) -> Self {
+        let lights = LightSampler::new(&shapes, |s| materials[s.material as usize].emission);
+        Self {
+            camera,
+            materials,
+            textures,
+            shapes,
+            point_lights,
+            environment,
+            lights,
+            render,
+        }
+    }
+
+    /// The full surface point of a backend's preliminary hit.
+    #[inline]
+    pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
+        let prim_hit = PrimHit {
+            t: hit.t,
+            u: hit.u,
+            v: hit.v,
+        };
+        self.shapes[hit.geom as usize]
+            .geometry
+            .surface(hit.prim, ray, &prim_hit)
+    }
+
+    #[inline]
+    pub fn material_of(&self, geom: u32) -> &Material {
+        &self.materials[self.shapes[geom as usize].material as usize]
+    }
+
+    /// Diffuse albedo at a surface point (texture applied).
+    #[inline]
+    pub fn albedo(&self, geom: u32, sp: &SurfacePoint) -> Rgb {
+        let shape = &self.shapes[geom as usize];
+        let m = &self.materials[shape.material as usize];
+        match m.texture {
+            Some(t) => m.kd * self.textures[t as usize].eval(shape.uv_transform.apply(sp.uv)),
+            None => m.kd,
+        }
+    }
+
+    /// Total number of primitives over all shapes.
+    pub fn primitive_count(&self) -> usize {
+        self.shapes
+            .iter()
+            .map(|s| s.geometry.primitive_count())
+            .sum()
+    }
+
+    /// Centre and radius of a sphere bounding all finite geometry.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let mut b = crate::math::Aabb::EMPTY;
+        for s in &self.shapes {
+            for prim in 0..s.geometry.primitive_count() as u32 {
+                if let Some(pb) = s.geometry.primitive_bounds(prim) {
+                    b = b.union(pb);
+                }
+            }
+        }
+        if b.is_empty() {
+            return (Vec3::ZERO, 1.0);
+        }
+        (b.centroid(), 0.5 * b.extent().length())
+    }
+}
