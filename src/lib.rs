@@ -3,6 +3,8 @@
 //! feeding one Monte Carlo integrator.
 
 pub mod accel;
+pub mod image;
 pub mod math;
+pub mod render;
 pub mod sampling;
 pub mod scene;

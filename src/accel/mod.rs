@@ -2,8 +2,6 @@
 //! (`Hit`); the scene turns that into a surface point with code shared by all
 //! backends, which is what lets them agree pixel by pixel.
 
-pub mod bvh;
-pub mod native;
 
 use crate::math::Ray;
 

@@ -3,12 +3,15 @@
 
 pub mod camera;
 pub mod light;
+pub mod load;
 pub mod material;
+pub mod mesh_io;
 pub mod shape;
 pub mod texture;
 
 pub use camera::Camera;
 pub use light::{LightSampler, PointLight};
+pub use load::{load, load_str, SceneError};
 pub use material::Material;
 pub use shape::{Geometry, PrimHit, SurfacePoint};
 pub use texture::{Texture, UvTransform};

@@ -1,0 +1,258 @@
+//! Unidirectional path tracing with next-event estimation, multiple
+//! importance sampling and Russian roulette over the material's lobes
+//! (DESIGN.md, "Light transport").
+//!
+//! At each vertex one lobe is chosen at random, with probabilities from the
+//! material's coefficients: diffuse (kd), mirror (ks), refraction (kt), or,
+//! with Russian roulette on, absorption (the rest). The throughput is divided
+//! by the chosen probability, so the estimator stays unbiased. With Russian
+//! roulette off the probabilities are normalised (no absorption) and only
+//! `max_depth` ends a path.
+//!
+//! On the diffuse lobe, point lights and `nee = true` emitters are sampled
+//! explicitly; a BSDF-sampled ray that then hits such an emitter is weighted
+//! by the power heuristic against the light-sampling pdf, so nothing is
+//! counted twice. Emitters that are not sampled, and the environment, are
+//! found only by hitting them and count fully.
+
+use crate::accel::Backend;
+use crate::math::{
+    fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
+};
+use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
+use crate::scene::{Scene, SurfacePoint};
+use std::f32::consts::FRAC_1_PI;
+
+/// Settings of one integration.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IntegratorSettings {
+    /// Maximum path segments, camera segment included (Mitsuba semantics).
+    pub max_depth: u32,
+    pub russian_roulette: bool,
+}
+
+/// Rays traced, by kind; summed across threads for the summary line.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct RayCounts {
+    pub camera: u64,
+    pub bounce: u64,
+    pub shadow: u64,
+}
+
+impl RayCounts {
+    pub fn total(&self) -> u64 {
+        self.camera + self.bounce + self.shadow
+    }
+
+    pub fn add(&mut self, o: &RayCounts) {
+        self.camera += o.camera;
+        self.bounce += o.bounce;
+        self.shadow += o.shadow;
+    }
+}
+
+enum Lobe {
+    Diffuse,
+    Mirror,
+    Refraction,
+}
+
+pub struct Integrator<'a, B: Backend + ?Sized> {
+    scene: &'a Scene,
+    backend: &'a B,
+    settings: IntegratorSettings,
+}
+
+impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
+    pub fn new(scene: &'a Scene, backend: &'a B, settings: IntegratorSettings) -> Self {
+        Self {
+            scene,
+            backend,
+            settings,
+        }
+    }
+
+    /// Radiance arriving along the camera ray `ray` (unit direction).
+    pub fn li(&self, mut ray: Ray, rng: &mut Rng, counts: &mut RayCounts) -> Rgb {
+        let scene = self.scene;
+        let max_depth = self.settings.max_depth;
+        let mut radiance = Rgb::ZERO;
+        let mut beta = Rgb::ONE;
+        // The previous vertex, for MIS on emitter hits: position and the
+        // solid-angle pdf of the direction sampled there (None: delta lobe
+        // or camera, whose emitter hits count fully).
+        let mut prev: Option<(Vec3, f32)> = None;
+        counts.camera += 1;
+        let mut depth = 1;
+        while depth <= max_depth {
+            let Some(hit) = self.backend.intersect(&ray) else {
+                if let Some(env) = scene.environment {
+                    radiance += beta * env;
+                }
+                break;
+            };
+            let sp = scene.surface(&ray, &hit);
+            let shape = &scene.shapes[hit.geom as usize];
+            let material = &scene.materials[shape.material as usize];
+            let wo = -ray.dir;
+            let cos_o = sp.n.dot(wo);
+
+            if material.is_emissive() && cos_o > 0.0 {
+                let weight = match prev {
+                    Some((from, pdf_bsdf)) if shape.nee => {
+                        let pdf_light =
+                            scene
+                                .lights
+                                .pdf(&scene.shapes, hit.geom, hit.prim, from, &sp);
+                        power_heuristic(pdf_bsdf, pdf_light)
+                    }
+                    _ => 1.0,
+                };
+                radiance += beta * material.emission * weight;
+            }
+            if depth == max_depth {
+                break;
+            }
+
+            // Coefficients of the three lobes at this point.
+            let kd = if material.texture.is_some() {
+                scene.albedo(hit.geom, &sp)
+            } else {
+                material.kd
+            };
+            let entering = cos_o > 0.0;
+            let (ks, kt) = if material.dielectric {
+                let eta = if entering {
+                    material.ior
+                } else {
+                    1.0 / material.ior
+                };
+                let f = fresnel_dielectric(cos_o.abs(), eta);
+                (material.kt * f, material.kt * (1.0 - f))
+            } else {
+                (material.ks, material.kt)
+            };
+            let (wd, ws, wt) = (kd.max_element(), ks.max_element(), kt.max_element());
+            let sum = wd + ws + wt;
+            if !(sum > 0.0) {
+                break;
+            }
+            // Probabilities: normalised when they exceed one or when Russian
+            // roulette is off; otherwise the rest is absorption.
+            let scale = if sum > 1.0 || !self.settings.russian_roulette {
+                1.0 / sum
+            } else {
+                1.0
+            };
+            let xi = rng.next_f32();
+            let (lobe, p) = if xi < wd * scale {
+                (Lobe::Diffuse, wd * scale)
+            } else if xi < (wd + ws) * scale {
+                (Lobe::Mirror, ws * scale)
+            } else if xi < sum * scale {
+                (Lobe::Refraction, wt * scale)
+            } else {
+                break;
+            };
+
+            // Shading normal on the side of the outgoing direction: every
+            // reflecting surface is two-sided.
+            let ns = if entering { sp.n } else { -sp.n };
+            let wi = match lobe {
+                Lobe::Diffuse => {
+                    beta /= p;
+                    radiance += beta * self.direct(&sp, ns, kd, depth, rng, counts);
+                    let frame = Frame::from_normal(ns);
+                    let local = cosine_hemisphere(rng.next_2d());
+                    let wi = frame.to_world(local);
+                    beta *= kd;
+                    prev = Some((sp.p, local.z * FRAC_1_PI));
+                    wi
+                }
+                Lobe::Mirror => {
+                    beta *= ks / p;
+                    prev = None;
+                    reflect(wo, ns)
+                }
+                Lobe::Refraction => {
+                    beta *= kt / p;
+                    prev = None;
+                    let eta = if entering {
+                        material.ior
+                    } else {
+                        1.0 / material.ior
+                    };
+                    // Total internal reflection sends the light back.
+                    refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
+                }
+            };
+            if !(beta.max_element() > 0.0) {
+                break;
+            }
+            ray = spawn_ray(sp.p, sp.p_err, sp.n, wi.normalize());
+            counts.bounce += 1;
+            depth += 1;
+        }
+        radiance
+    }
+
+    /// Light reaching `sp` from point lights and sampled emitters, times the
+    /// Lambertian BRDF (kd/π) and the cosine; area lights MIS-weighted.
+    fn direct(
+        &self,
+        sp: &SurfacePoint,
+        ns: Vec3,
+        kd: Rgb,
+        depth: u32,
+        rng: &mut Rng,
+        counts: &mut RayCounts,
+    ) -> Rgb {
+        // Light sampling adds one segment to the path.
+        if depth + 1 > self.settings.max_depth {
+            return Rgb::ZERO;
+        }
+        let scene = self.scene;
+        let f = kd * FRAC_1_PI;
+        let mut sum = Rgb::ZERO;
+        for light in &scene.point_lights {
+            let to_light = light.position - sp.p;
+            let d2 = to_light.length_squared();
+            let cos = ns.dot(to_light);
+            if cos <= 0.0 || d2 == 0.0 {
+                continue;
+            }
+            let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, ns);
+            counts.shadow += 1;
+            if !self.backend.occluded(&ray) {
+                sum += f * light.intensity * (cos / (d2 * d2.sqrt()));
+            }
+        }
+        if !scene.lights.is_empty() {
+            let u_pick = rng.next_f32();
+            let u = rng.next_2d();
+            if let Some(ls) = scene.lights.sample(&scene.shapes, sp.p, u_pick, u) {
+                let w = ls.point.p - sp.p;
+                let d = w.length();
+                let wi = w / d;
+                let cos = ns.dot(wi);
+                let emission = scene.material_of(ls.geom).emission;
+                if cos > 0.0 && ls.point.n.dot(-wi) > 0.0 && ls.pdf > 0.0 {
+                    let ray = spawn_ray_to(
+                        sp.p,
+                        sp.p_err,
+                        sp.n,
+                        ls.point.p,
+                        ls.point.p_err,
+                        ls.point.n,
+                    );
+                    counts.shadow += 1;
+                    if !self.backend.occluded(&ray) {
+                        let weight = power_heuristic(ls.pdf, cos * FRAC_1_PI);
+                        sum += f * emission * (cos * weight / ls.pdf);
+                    }
+                }
+            }
+        }
+        sum
+    }
+}

@@ -1,0 +1,120 @@
+//! The parallel render loop: rows of pixels in parallel (rayon), every sample
+//! drawing its random numbers from a stream keyed by (seed, pixel, sample
+//! index), each pixel summing its samples in order. The image is therefore
+//! the same for any thread count, and disjoint sample ranges merge exactly.
+
+pub mod film;
+pub mod integrator;
+
+pub use film::{Film, PixelSum};
+pub use integrator::{Integrator, IntegratorSettings, RayCounts};
+
+use crate::accel::Backend;
+use crate::math::Vec2;
+use crate::sampling::Rng;
+use crate::scene::Scene;
+use rayon::prelude::*;
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderOptions {
+    /// Sample indices to render in every pixel.
+    pub samples: Range<u32>,
+    pub seed: u64,
+    pub integrator: IntegratorSettings,
+}
+
+impl RenderOptions {
+    /// All samples the scene asks for, with its own settings.
+    pub fn from_scene(scene: &Scene) -> Self {
+        Self {
+            samples: 0..scene.render.spp,
+            seed: scene.render.seed,
+            integrator: IntegratorSettings {
+                max_depth: scene.render.max_depth,
+                russian_roulette: scene.render.russian_roulette,
+            },
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderStats {
+    pub wall: Duration,
+    pub rays: RayCounts,
+    pub samples: u64,
+}
+
+impl RenderStats {
+    pub fn msamples_per_s(&self) -> f64 {
+        self.samples as f64 / self.wall.as_secs_f64() / 1e6
+    }
+
+    pub fn mrays_per_s(&self) -> f64 {
+        self.rays.total() as f64 / self.wall.as_secs_f64() / 1e6
+    }
+}
+
+/// Something told of progress, once per finished row.
+pub trait Progress: Sync {
+    fn row_done(&self);
+}
+
+impl Progress for () {
+    fn row_done(&self) {}
+}
+
+/// Renders `options.samples` of every pixel of `scene` through `backend`.
+pub fn render<B: Backend + ?Sized>(
+    scene: &Scene,
+    backend: &B,
+    options: &RenderOptions,
+    progress: &dyn Progress,
+) -> (Film, RenderStats) {
+    let start = Instant::now();
+    let cam = &scene.camera;
+    let (width, height) = (cam.width, cam.height);
+    let basis = cam.basis();
+    let integrator = Integrator::new(scene, backend, options.integrator);
+    let mut film = Film::new(width, height);
+    let counts = Mutex::new(RayCounts::default());
+    let non_finite = AtomicU64::new(0);
+    let samples = options.samples.clone();
+
+    film.sum
+        .par_chunks_mut(width as usize)
+        .zip(film.sum_sq.par_chunks_mut(width as usize))
+        .enumerate()
+        .for_each(|(y, (row_sum, row_sq))| {
+            let y = y as u32;
+            let mut local = RayCounts::default();
+            let mut bad = 0;
+            for x in 0..width {
+                let mut px = PixelSum::default();
+                for s in samples.clone() {
+                    let mut rng = Rng::for_sample(options.seed, x, y, s);
+                    let jitter = rng.next_2d();
+                    let ray = cam.ray(&basis, Vec2::new(x as f32, y as f32) + jitter);
+                    px.add(integrator.li(ray, &mut rng, &mut local));
+                }
+                row_sum[x as usize] = px.sum;
+                row_sq[x as usize] = px.sum_sq;
+                bad += px.non_finite;
+            }
+            counts.lock().expect("no panics while held").add(&local);
+            non_finite.fetch_add(bad, Ordering::Relaxed);
+            progress.row_done();
+        });
+
+    film.samples = samples.len() as u64;
+    film.non_finite = non_finite.into_inner();
+    let stats = RenderStats {
+        wall: start.elapsed(),
+        rays: counts.into_inner().expect("no panics while held"),
+        samples: film.samples * width as u64 * height as u64,
+    };
+    (film, stats)
+}

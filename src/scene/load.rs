@@ -1,0 +1,807 @@
+//! The TOML scene format (documented key by key in docs/scene-format.md).
+//!
+//! Parsing is two-staged: serde reads the file into descriptions that keep
+//! the byte span of every table, then `build` validates them and builds the
+//! `Scene`. Every error names the file, the line and column, and the field.
+
+use super::shape::{Cuboid, Geometry, Mesh, Plane, Quad, Sphere};
+use super::{
+    Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform,
+};
+use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use toml::Spanned;
+
+/// A scene error: where it is and what is wrong.
+#[derive(Debug, thiserror::Error)]
+#[error("{}{}: {message}", file.display(), location.map(|(l, c)| format!(":{l}:{c}")).unwrap_or_default())]
+pub struct SceneError {
+    pub file: PathBuf,
+    /// 1-based line and column, when the error has a place in the file.
+    pub location: Option<(usize, usize)>,
+    pub message: String,
+}
+
+/// Loads and validates the scene file at `path`.
+pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    let text = std::fs::read(path).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        location: None,
+        message: format!("cannot read the scene file: {e}"),
+    })?;
+    let text = String::from_utf8(text).map_err(|e| {
+        let offset = e.utf8_error().valid_up_to();
+        SceneError {
+            file: path.to_path_buf(),
+            location: None,
+            message: format!("the file is not UTF-8 text (invalid byte at offset {offset})"),
+        }
+    })?;
+    load_str(&text, path)
+}
+
+/// Loads a scene from `text`; `path` names it in errors and anchors
+/// relative file names.
+pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
+    let ctx = Ctx { text, path };
+    let desc: SceneDesc = toml::from_str(text).map_err(|e| {
+        let span = e.span().unwrap_or(0..0);
+        let mut message = e.message().trim_end().to_string();
+        if let Some(hint) = did_you_mean(&message) {
+            message.push_str(&format!(" (did you mean `{hint}`?)"));
+        }
+        // Point at the offending key itself when serde names it.
+        let at = unknown_field(&message)
+            .and_then(|key| ctx.find_key(&span, key))
+            .unwrap_or(span.start);
+        ctx.error_at(at, message)
+    })?;
+    ctx.build(desc)
+}
+
+const DEFAULT_ASSETS: &str = "../shared/assets";
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneDesc {
+    camera: Spanned<CameraDesc>,
+    render: Option<Spanned<RenderDesc>>,
+    #[serde(default)]
+    materials: BTreeMap<String, Spanned<MaterialDesc>>,
+    #[serde(default)]
+    textures: BTreeMap<String, Spanned<TextureDesc>>,
+    #[serde(default)]
+    shapes: Vec<Spanned<ShapeDesc>>,
+    #[serde(default)]
+    lights: Vec<Spanned<LightDesc>>,
+    environment: Option<Spanned<EnvironmentDesc>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDesc {
+    eye: [f32; 3],
+    target: [f32; 3],
+    up: Option<[f32; 3]>,
+    fov: Option<f32>,
+    resolution: Option<[u32; 2]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderDesc {
+    spp: Option<u32>,
+    max_depth: Option<u32>,
+    seed: Option<u64>,
+    russian_roulette: Option<bool>,
+}
+
+/// A colour: `[r, g, b]`, or one number for grey.
+#[derive(Deserialize, Clone, Copy)]
+#[serde(untagged)]
+enum Color {
+    Grey(f32),
+    Rgb([f32; 3]),
+}
+
+impl Color {
+    fn rgb(self) -> Rgb {
+        match self {
+            Color::Grey(g) => Rgb::splat(g),
+            Color::Rgb(c) => Rgb::from(c),
+        }
+    }
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialDesc {
+    #[serde(rename = "type")]
+    kind: Option<String>,
+    kd: Option<Color>,
+    ks: Option<Color>,
+    kt: Option<Color>,
+    ior: Option<f32>,
+    emission: Option<Color>,
+    texture: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TextureDesc {
+    file: Option<String>,
+    checker: Option<[Color; 2]>,
+    squares: Option<f32>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShapeDesc {
+    #[serde(rename = "type")]
+    kind: String,
+    material: Option<String>,
+    nee: Option<bool>,
+    // sphere
+    center: Option<[f32; 3]>,
+    radius: Option<f32>,
+    // plane
+    point: Option<[f32; 3]>,
+    normal: Option<[f32; 3]>,
+    // quad
+    corners: Option<Vec<[f32; 3]>>,
+    // cuboid
+    min: Option<[f32; 3]>,
+    max: Option<[f32; 3]>,
+    // triangle
+    vertices: Option<Vec<[f32; 3]>>,
+    uvs: Option<Vec<[f32; 2]>>,
+    // mesh
+    file: Option<String>,
+    scale: Option<Scale>,
+    rotate: Option<[f32; 3]>,
+    translate: Option<[f32; 3]>,
+    // texture mapping
+    texture_scale: Option<[f32; 2]>,
+    texture_offset: Option<[f32; 2]>,
+}
+
+#[derive(Deserialize, Clone, Copy)]
+#[serde(untagged)]
+enum Scale {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightDesc {
+    #[serde(rename = "type")]
+    kind: String,
+    position: [f32; 3],
+    intensity: Color,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct EnvironmentDesc {
+    radiance: Color,
+}
+
+struct Ctx<'a> {
+    text: &'a str,
+    path: &'a Path,
+}
+
+impl Ctx<'_> {
+    fn error_at(&self, offset: usize, message: impl Into<String>) -> SceneError {
+        let offset = offset.min(self.text.len());
+        let before = &self.text[..offset];
+        let line = before.matches('\n').count() + 1;
+        let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
+        SceneError {
+            file: self.path.to_path_buf(),
+            location: Some((line, column)),
+            message: message.into(),
+        }
+    }
+
+    /// Offset of `key =` inside `span`, if written there.
+    fn find_key(&self, span: &Range<usize>, key: &str) -> Option<usize> {
+        let end = span.end.min(self.text.len());
+        let start = span.start.min(end);
+        let region = &self.text[start..end];
+        let mut at = 0;
+        while let Some(i) = region[at..].find(key) {
+            let pos = at + i;
+            let prev_ok = pos == 0
+                || region[..pos]
+                    .chars()
+                    .next_back()
+                    .is_some_and(|c| !(c.is_alphanumeric() || c == '_'));
+            let rest = region[pos + key.len()..].trim_start_matches([' ', '\t']);
+            if prev_ok && rest.starts_with('=') {
+                return Some(start + pos);
+            }
+            at = pos + key.len();
+        }
+        None
+    }
+
+    /// Error about `field` of the table at `span`.
+    fn field_error(&self, span: &Range<usize>, field: &str, message: impl AsRef<str>) -> SceneError {
+        let at = self.find_key(span, field).unwrap_or(span.start);
+        self.error_at(at, format!("`{field}`: {}", message.as_ref()))
+    }
+
+    fn finite3(&self, span: &Range<usize>, field: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        let v = Vec3::from(v);
+        if !v.is_finite() {
+            return Err(self.field_error(span, field, format!("must be finite, got {v}")));
+        }
+        Ok(v)
+    }
+
+    fn color(
+        &self,
+        span: &Range<usize>,
+        field: &str,
+        c: Option<Color>,
+        default: Rgb,
+        max: f32,
+    ) -> Result<Rgb, SceneError> {
+        let Some(c) = c else { return Ok(default) };
+        let c = c.rgb();
+        if !c.is_finite() || c.min_element() < 0.0 || c.max_element() > max {
+            let range = if max.is_finite() {
+                format!("in [0, {max}]")
+            } else {
+                "finite and non-negative".into()
+            };
+            return Err(self.field_error(span, field, format!("every channel must be {range}, got {c}")));
+        }
+        Ok(c)
+    }
+
+    fn resolve_file(&self, span: &Range<usize>, name: &str) -> Result<PathBuf, SceneError> {
+        let base = self.path.parent().unwrap_or(Path::new("."));
+        let mut tried = Vec::new();
+        let candidates: Vec<PathBuf> = if let Some(rest) = name
+            .strip_prefix("$LUZ_ASSETS/")
+            .or_else(|| name.strip_prefix("${LUZ_ASSETS}/"))
+        {
+            match std::env::var_os("LUZ_ASSETS") {
+                Some(dir) => vec![PathBuf::from(dir).join(rest)],
+                None => vec![
+                    Path::new(DEFAULT_ASSETS).join(rest),
+                    base.join("..").join(DEFAULT_ASSETS).join(rest),
+                ],
+            }
+        } else {
+            vec![base.join(name)]
+        };
+        for c in candidates {
+            if c.is_file() {
+                return Ok(c);
+            }
+            tried.push(c.display().to_string());
+        }
+        let hint = if name.contains("LUZ_ASSETS") {
+            " (set LUZ_ASSETS to the folder holding the test assets; see the README)"
+        } else {
+            ""
+        };
+        Err(self.field_error(
+            span,
+            "file",
+            format!("`{name}` not found; looked for {}{hint}", tried.join(", ")),
+        ))
+    }
+
+    fn build(&self, desc: SceneDesc) -> Result<Scene, SceneError> {
+        let camera = self.camera(&desc.camera)?;
+        let render = match &desc.render {
+            Some(r) => self.render(r)?,
+            None => RenderSettings::default(),
+        };
+
+        let mut textures = Vec::new();
+        let mut texture_ids = BTreeMap::new();
+        for (name, t) in &desc.textures {
+            texture_ids.insert(name.clone(), textures.len() as u32);
+            textures.push(self.texture(name, t)?);
+        }
+
+        let mut materials = Vec::new();
+        let mut material_ids = BTreeMap::new();
+        for (name, m) in &desc.materials {
+            material_ids.insert(name.clone(), materials.len() as u32);
+            materials.push(self.material(name, m, &texture_ids)?);
+        }
+        let mut default_material = None;
+
+        let mut shapes = Vec::new();
+        for s in &desc.shapes {
+            let span = s.span();
+            let sd = s.get_ref();
+            let geometry = self.geometry(&span, sd)?;
+            let material = match &sd.material {
+                Some(name) => *material_ids.get(name).ok_or_else(|| {
+                    let known: Vec<&str> = material_ids.keys().map(|k| k.as_str()).collect();
+                    self.field_error(
+                        &span,
+                        "material",
+                        format!("no material named `{name}` (defined: {})", known.join(", ")),
+                    )
+                })?,
+                None => *default_material.get_or_insert_with(|| {
+                    materials.push(Material {
+                        name: "(default)".into(),
+                        ..Material::default()
+                    });
+                    materials.len() as u32 - 1
+                }),
+            };
+            let mut shape = Shape::new(geometry, material);
+            shape.nee = sd.nee.unwrap_or(false);
+            if shape.nee && !materials[material as usize].is_emissive() {
+                return Err(self.field_error(&span, "nee", "only emissive shapes can be sampled as lights"));
+            }
+            if shape.nee && matches!(shape.geometry, Geometry::Plane(_)) {
+                return Err(self.field_error(&span, "nee", "an infinite plane has no area to sample"));
+            }
+            for (field, v) in [("texture_scale", sd.texture_scale), ("texture_offset", sd.texture_offset)] {
+                if let Some(v) = v {
+                    if !Vec2::from(v).is_finite() {
+                        return Err(self.field_error(&span, field, "must be finite"));
+                    }
+                }
+            }
+            shape.uv_transform = UvTransform {
+                scale: sd.texture_scale.map_or(Vec2::ONE, Vec2::from),
+                offset: sd.texture_offset.map_or(Vec2::ZERO, Vec2::from),
+            };
+            shapes.push(shape);
+        }
+
+        let mut point_lights = Vec::new();
+        for l in &desc.lights {
+            let span = l.span();
+            let ld = l.get_ref();
+            if ld.kind != "point" {
+                return Err(self.field_error(
+                    &span,
+                    "type",
+                    format!(
+                        "unknown light type `{}`: `point` is the only light of [[lights]]; area lights are shapes whose material has `emission`",
+                        ld.kind
+                    ),
+                ));
+            }
+            point_lights.push(PointLight {
+                position: self.finite3(&span, "position", ld.position)?,
+                intensity: self.color(&span, "intensity", Some(ld.intensity), Rgb::ZERO, f32::INFINITY)?,
+            });
+        }
+
+        let environment = match &desc.environment {
+            Some(e) => Some(self.color(&e.span(), "radiance", Some(e.get_ref().radiance), Rgb::ZERO, f32::INFINITY)?),
+            None => None,
+        };
+
+        Ok(Scene::new(
+            camera,
+            materials,
+            textures,
+            shapes,
+            point_lights,
+            environment,
+            render,
+        ))
+    }
+
+    fn camera(&self, c: &Spanned<CameraDesc>) -> Result<Camera, SceneError> {
+        let span = c.span();
+        let cd = c.get_ref();
+        let eye = self.finite3(&span, "eye", cd.eye)?;
+        let target = self.finite3(&span, "target", cd.target)?;
+        let up = self.finite3(&span, "up", cd.up.unwrap_or([0.0, 1.0, 0.0]))?;
+        if (target - eye).length_squared() == 0.0 {
+            return Err(self.field_error(&span, "target", "must differ from `eye`"));
+        }
+        if (target - eye).cross(up).length_squared() == 0.0 {
+            return Err(self.field_error(&span, "up", "must not be parallel to the view direction"));
+        }
+        let fov = cd.fov.unwrap_or(40.0);
+        if !(fov > 0.0 && fov < 180.0) {
+            return Err(self.field_error(&span, "fov", format!("must be in (0, 180) degrees, got {fov}")));
+        }
+        let [width, height] = cd.resolution.unwrap_or([512, 512]);
+        if width == 0 || height == 0 || width > 1 << 16 || height > 1 << 16 {
+            return Err(self.field_error(
+                &span,
+                "resolution",
+                format!("must be between 1 and 65536 in each axis, got {width}x{height}"),
+            ));
+        }
+        Ok(Camera {
+            eye,
+            target,
+            up,
+            fov_y: fov,
+            width,
+            height,
+        })
+    }
+
+    fn render(&self, r: &Spanned<RenderDesc>) -> Result<RenderSettings, SceneError> {
+        let rd = r.get_ref();
+        let d = RenderSettings::default();
+        let spp = rd.spp.unwrap_or(d.spp);
+        if spp == 0 {
+            return Err(self.field_error(&r.span(), "spp", "must be at least 1"));
+        }
+        Ok(RenderSettings {
+            spp,
+            max_depth: rd.max_depth.unwrap_or(d.max_depth),
+            seed: rd.seed.unwrap_or(d.seed),
+            russian_roulette: rd.russian_roulette.unwrap_or(d.russian_roulette),
+        })
+    }
+
+    fn texture(&self, name: &str, t: &Spanned<TextureDesc>) -> Result<Texture, SceneError> {
+        let span = t.span();
+        let td = t.get_ref();
+        match (&td.file, &td.checker) {
+            (Some(file), None) => {
+                if td.squares.is_some() {
+                    return Err(self.field_error(&span, "squares", "only a checker texture has squares"));
+                }
+                let path = self.resolve_file(&span, file)?;
+                let img = crate::image::io::read_texture(&path).map_err(|e| {
+                    self.field_error(&span, "file", format!("texture `{name}`: {e}"))
+                })?;
+                Ok(Texture::Image {
+                    width: img.width,
+                    height: img.height,
+                    texels: img.pixels,
+                })
+            }
+            (None, Some([a, b])) => {
+                let squares = td.squares.unwrap_or(8.0);
+                if !(squares > 0.0 && squares.is_finite()) {
+                    return Err(self.field_error(&span, "squares", "must be positive and finite"));
+                }
+                Ok(Texture::Checker {
+                    a: self.color(&span, "checker", Some(*a), Rgb::ZERO, 1.0)?,
+                    b: self.color(&span, "checker", Some(*b), Rgb::ZERO, 1.0)?,
+                    squares,
+                })
+            }
+            _ => Err(self.error_at(
+                span.start,
+                format!("texture `{name}` needs exactly one of `file` or `checker`"),
+            )),
+        }
+    }
+
+    fn material(
+        &self,
+        name: &str,
+        m: &Spanned<MaterialDesc>,
+        textures: &BTreeMap<String, u32>,
+    ) -> Result<Material, SceneError> {
+        let span = m.span();
+        let md = m.get_ref();
+        let dielectric = match md.kind.as_deref() {
+            None | Some("diffuse") | Some("standard") => false,
+            Some("dielectric") | Some("glass") => true,
+            Some(other) => {
+                return Err(self.field_error(
+                    &span,
+                    "type",
+                    format!("unknown material type `{other}` (known: standard, dielectric)"),
+                ))
+            }
+        };
+        let (kd_default, kt_default) = if dielectric {
+            (Rgb::ZERO, Rgb::ONE)
+        } else if md.ks.is_some() || md.kt.is_some() || md.emission.is_some() {
+            (Rgb::ZERO, Rgb::ZERO)
+        } else {
+            (Rgb::splat(0.5), Rgb::ZERO)
+        };
+        let kd = self.color(&span, "kd", md.kd, kd_default, 1.0)?;
+        let ks = self.color(&span, "ks", md.ks, Rgb::ZERO, 1.0)?;
+        let kt = self.color(&span, "kt", md.kt, kt_default, 1.0)?;
+        if dielectric && (md.kd.is_some() || md.ks.is_some()) {
+            let field = if md.kd.is_some() { "kd" } else { "ks" };
+            return Err(self.field_error(
+                &span,
+                field,
+                "a dielectric reflects and refracts by the Fresnel term; only `kt` (a tint) and `ior` apply",
+            ));
+        }
+        let total = kd + ks + kt;
+        if total.max_element() > 1.0 + 1e-6 {
+            let field = ["kd", "ks", "kt"]
+                .into_iter()
+                .zip([md.kd, md.ks, md.kt])
+                .filter(|(_, v)| v.is_some())
+                .last()
+                .map_or("kd", |(f, _)| f);
+            return Err(self.field_error(
+                &span,
+                field,
+                format!("material `{name}`: kd + ks + kt = {total} exceeds 1 in some channel (the surface would create energy)"),
+            ));
+        }
+        let ior = md.ior.unwrap_or(1.5);
+        if !(ior > 0.0 && ior.is_finite()) {
+            return Err(self.field_error(&span, "ior", format!("must be positive and finite, got {ior}")));
+        }
+        let emission = self.color(&span, "emission", md.emission, Rgb::ZERO, f32::INFINITY)?;
+        let texture = match &md.texture {
+            Some(t) => Some(*textures.get(t).ok_or_else(|| {
+                self.field_error(&span, "texture", format!("no texture named `{t}`"))
+            })?),
+            None => None,
+        };
+        Ok(Material {
+            name: name.to_string(),
+            kd,
+            ks,
+            kt,
+            ior,
+            dielectric,
+            emission,
+            texture,
+        })
+    }
+
+    fn geometry(&self, span: &Range<usize>, sd: &ShapeDesc) -> Result<Geometry, SceneError> {
+        let used: &[&str] = match sd.kind.as_str() {
+            "sphere" => &["center", "radius"],
+            "plane" => &["point", "normal"],
+            "quad" => &["corners"],
+            "cuboid" => &["min", "max"],
+            "triangle" => &["vertices", "uvs"],
+            "mesh" => &["file", "scale", "rotate", "translate"],
+            other => {
+                return Err(self.field_error(
+                    span,
+                    "type",
+                    format!("unknown shape type `{other}` (known: sphere, plane, quad, cuboid, triangle, mesh)"),
+                ))
+            }
+        };
+        let present = [
+            ("center", sd.center.is_some()),
+            ("radius", sd.radius.is_some()),
+            ("point", sd.point.is_some()),
+            ("normal", sd.normal.is_some()),
+            ("corners", sd.corners.is_some()),
+            ("min", sd.min.is_some()),
+            ("max", sd.max.is_some()),
+            ("vertices", sd.vertices.is_some()),
+            ("uvs", sd.uvs.is_some()),
+            ("file", sd.file.is_some()),
+            ("scale", sd.scale.is_some()),
+            ("rotate", sd.rotate.is_some()),
+            ("translate", sd.translate.is_some()),
+        ];
+        for (field, is_set) in present {
+            if is_set && !used.contains(&field) {
+                return Err(self.field_error(
+                    span,
+                    field,
+                    format!("a {} has no `{field}` (it takes: {})", sd.kind, used.join(", ")),
+                ));
+            }
+        }
+        let need = |field: &str| self.error_at(span.start, format!("a {} needs `{field}`", sd.kind));
+        Ok(match sd.kind.as_str() {
+            "sphere" => {
+                let center = self.finite3(span, "center", sd.center.ok_or_else(|| need("center"))?)?;
+                let radius = sd.radius.ok_or_else(|| need("radius"))?;
+                if !(radius > 0.0 && radius.is_finite()) {
+                    return Err(self.field_error(span, "radius", format!("must be positive and finite, got {radius}")));
+                }
+                Geometry::Sphere(Sphere { center, radius })
+            }
+            "plane" => {
+                let point = self.finite3(span, "point", sd.point.ok_or_else(|| need("point"))?)?;
+                let normal = self.finite3(span, "normal", sd.normal.ok_or_else(|| need("normal"))?)?;
+                if normal.length_squared() == 0.0 {
+                    return Err(self.field_error(span, "normal", "must not be zero"));
+                }
+                Geometry::Plane(Plane::new(point, normal))
+            }
+            "quad" => {
+                let corners = sd.corners.as_ref().ok_or_else(|| need("corners"))?;
+                if corners.len() != 4 {
+                    return Err(self.field_error(span, "corners", format!("needs 4 points, got {}", corners.len())));
+                }
+                let mut p = [Vec3::ZERO; 4];
+                for (i, c) in corners.iter().enumerate() {
+                    p[i] = self.finite3(span, "corners", *c)?;
+                }
+                let (e1, e2) = (p[1] - p[0], p[3] - p[0]);
+                let off = (p[2] - (p[0] + e1 + e2)).length();
+                let size = e1.length().max(e2.length());
+                if off > 1e-4 * size.max(f32::MIN_POSITIVE) {
+                    return Err(self.field_error(
+                        span,
+                        "corners",
+                        format!("not a parallelogram: p2 is {off} away from p1 + p3 - p0"),
+                    ));
+                }
+                Geometry::Quad(Quad::new(p[0], e1, e2).ok_or_else(|| {
+                    self.field_error(span, "corners", "the quad has no area")
+                })?)
+            }
+            "cuboid" => {
+                let min = self.finite3(span, "min", sd.min.ok_or_else(|| need("min"))?)?;
+                let max = self.finite3(span, "max", sd.max.ok_or_else(|| need("max"))?)?;
+                if !min.cmplt(max).all() {
+                    return Err(self.field_error(span, "max", "must exceed `min` on every axis"));
+                }
+                Geometry::Cuboid(Cuboid { min, max })
+            }
+            "triangle" => {
+                let vertices = sd.vertices.as_ref().ok_or_else(|| need("vertices"))?;
+                if vertices.len() != 3 {
+                    return Err(self.field_error(span, "vertices", format!("needs 3 points, got {}", vertices.len())));
+                }
+                let mut positions = Vec::with_capacity(3);
+                for v in vertices {
+                    positions.push(self.finite3(span, "vertices", *v)?);
+                }
+                let uvs = match &sd.uvs {
+                    Some(uvs) if uvs.len() == 3 => Some(uvs.iter().map(|&u| Vec2::from(u)).collect()),
+                    Some(uvs) => {
+                        return Err(self.field_error(span, "uvs", format!("needs 3 pairs, got {}", uvs.len())))
+                    }
+                    None => None,
+                };
+                Geometry::Mesh(Mesh {
+                    positions,
+                    indices: vec![[0, 1, 2]],
+                    uvs,
+                })
+            }
+            "mesh" => {
+                let file = sd.file.as_ref().ok_or_else(|| need("file"))?;
+                let path = self.resolve_file(span, file)?;
+                let mut mesh = super::mesh_io::load_mesh(&path)
+                    .map_err(|e| self.field_error(span, "file", e.to_string()))?;
+                let scale = match sd.scale {
+                    None => Vec3::ONE,
+                    Some(Scale::Uniform(s)) => Vec3::splat(s),
+                    Some(Scale::PerAxis(s)) => Vec3::from(s),
+                };
+                if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
+                    return Err(self.field_error(span, "scale", "must be finite and non-zero"));
+                }
+                let r = self.finite3(span, "rotate", sd.rotate.unwrap_or([0.0; 3]))?;
+                let t = self.finite3(span, "translate", sd.translate.unwrap_or([0.0; 3]))?;
+                let rotation = Quat::from_rotation_z(r.z.to_radians())
+                    * Quat::from_rotation_y(r.y.to_radians())
+                    * Quat::from_rotation_x(r.x.to_radians());
+                if sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some() {
+                    mesh.transform(&Mat4::from_scale_rotation_translation(scale, rotation, t));
+                }
+                Geometry::Mesh(mesh)
+            }
+            _ => unreachable!("shape kinds are checked above"),
+        })
+    }
+}
+
+/// The unknown key named by a serde "unknown field" message.
+fn unknown_field(message: &str) -> Option<&str> {
+    let rest = message.strip_prefix("unknown field `")?;
+    rest.split('`').next()
+}
+
+/// The closest expected key to an unknown one, if it is a likely typo.
+fn did_you_mean(message: &str) -> Option<String> {
+    let unknown = unknown_field(message)?;
+    let expected = message.split("expected").nth(1)?;
+    expected
+        .split('`')
+        .skip(1)
+        .step_by(2)
+        .map(|cand| (edit_distance(unknown, cand), cand))
+        .filter(|&(d, cand)| d <= 2.max(cand.len() / 3))
+        .min()
+        .map(|(_, c)| c.to_string())
+}
+
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, &cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != cb)).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n";
+
+    fn err(text: &str) -> SceneError {
+        load_str(text, Path::new("test.toml")).err().expect("must fail")
+    }
+
+    #[test]
+    fn minimal_scene_gets_defaults() {
+        let s = load_str(MINIMAL, Path::new("m.toml")).unwrap();
+        assert_eq!((s.camera.width, s.camera.height), (512, 512));
+        assert_eq!(s.camera.fov_y, 40.0);
+        assert_eq!(s.render, RenderSettings::default());
+        assert!(s.shapes.is_empty() && s.lights.is_empty());
+    }
+
+    #[test]
+    fn unknown_key_names_line_column_and_suggests() {
+        let e = err(&format!("{MINIMAL}[[shapes]]\ntype = \"sphere\"\ncenter = [0,0,0]\nradus = 1\n"));
+        assert_eq!(e.location.map(|l| l.0), Some(7), "{e}");
+        assert!(e.message.contains("radus") && e.message.contains("did you mean `radius`"), "{e}");
+    }
+
+    #[test]
+    fn wrong_type_is_located() {
+        let e = err("[camera]\neye = [0, 1, 3]\ntarget = \"up\"\n");
+        assert_eq!(e.location.map(|l| l.0), Some(3), "{e}");
+    }
+
+    #[test]
+    fn semantic_errors_name_the_field_line() {
+        let cases = [
+            ("[[shapes]]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = -1\n", 7, "radius"),
+            ("[[shapes]]\ntype = \"sphere\"\ncenter = [0,nan,0]\nradius = 1\n", 6, "center"),
+            ("[materials.m]\nkd = 0.6\nks = 0.5\n", 6, "ks"),
+            ("[[shapes]]\ntype = \"cuboid\"\nmin = [0,0,0]\nmax = [1,1,1]\nmaterial = \"nope\"\n", 8, "material"),
+            ("[[lights]]\ntype = \"point\"\nposition = [0,0,0]\nintensity = inf\n", 7, "intensity"),
+        ];
+        for (body, line, field) in cases {
+            let e = err(&format!("{MINIMAL}{body}"));
+            assert_eq!(e.location.map(|l| l.0), Some(line), "{e}");
+            assert!(e.message.contains(field), "{e}");
+        }
+    }
+
+    #[test]
+    fn missing_mesh_file_says_where_it_looked() {
+        let e = err(&format!("{MINIMAL}[[shapes]]\ntype = \"mesh\"\nfile = \"nothing-here.ply\"\n"));
+        assert!(e.message.contains("nothing-here.ply") && e.message.contains("looked for"), "{e}");
+        assert_eq!(e.location.map(|l| l.0), Some(6));
+    }
+
+    #[test]
+    fn quad_must_be_a_parallelogram() {
+        let e = err(&format!(
+            "{MINIMAL}[[shapes]]\ntype = \"quad\"\ncorners = [[0,0,0],[1,0,0],[1,1,0.5],[0,1,0]]\n"
+        ));
+        assert!(e.message.contains("parallelogram"), "{e}");
+    }
+
+    #[test]
+    fn edit_distance_counts_edits() {
+        assert_eq!(edit_distance("radus", "radius"), 1);
+        assert_eq!(edit_distance("", "abc"), 3);
+        assert_eq!(edit_distance("kitten", "sitting"), 3);
+    }
+}
