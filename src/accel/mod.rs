@@ -25,3 +25,97 @@ pub trait Backend: Send + Sync {
     /// Whether anything is hit in `(ray.t_min, ray.t_max)`: shadow rays.
     fn occluded(&self, ray: &Ray) -> bool;
 }
+
+pub mod bvh;
+pub mod native;
+
+use crate::scene::Scene;
+use native::NativeBackend;
+use std::sync::Arc;
+
+/// Which backend to build; `Auto` is Embree when compiled in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackendKind {
+    Auto,
+    Rust,
+    Embree,
+}
+
+impl std::str::FromStr for BackendKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "auto" => Ok(Self::Auto),
+            "rust" | "native" => Ok(Self::Rust),
+            "embree" => Ok(Self::Embree),
+            _ => Err(format!("unknown backend `{s}` (known: auto, rust, embree)")),
+        }
+    }
+}
+
+/// Embree's BVH build quality.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum EmbreeQuality {
+    Low,
+    #[default]
+    Medium,
+    High,
+}
+
+impl std::str::FromStr for EmbreeQuality {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "low" => Ok(Self::Low),
+            "medium" => Ok(Self::Medium),
+            "high" => Ok(Self::High),
+            _ => Err(format!("unknown Embree quality `{s}` (known: low, medium, high)")),
+        }
+    }
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct BuildOptions {
+    pub embree_quality: EmbreeQuality,
+    pub embree_robust: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum AccelError {
+    #[error("the Embree backend is not compiled into this luz: install Embree 3 (`apt-get install libembree-dev` on Debian 12) and rebuild, or use `--backend rust`")]
+    EmbreeMissing,
+    #[error("Embree: {0}")]
+    Embree(String),
+}
+
+/// A built backend. An enum, so the render loop is monomorphised per backend
+/// and no virtual call sits in the hot path.
+pub enum Accel {
+    Native(NativeBackend),
+}
+
+impl Accel {
+    pub fn build(scene: &Arc<Scene>, kind: BackendKind, options: &BuildOptions) -> Result<Self, AccelError> {
+        let _ = options;
+        match kind {
+            BackendKind::Rust | BackendKind::Auto => Ok(Accel::Native(NativeBackend::new(scene.clone()))),
+            BackendKind::Embree => Err(AccelError::EmbreeMissing),
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            Accel::Native(b) => b.name(),
+        }
+    }
+}
+
+/// Names of the backends compiled into this build.
+pub fn compiled_backends() -> Vec<&'static str> {
+    vec!["rust"]
+}
+
+/// Embree's version string, when compiled in.
+pub fn embree_version() -> Option<String> {
+    None
+}

@@ -118,3 +118,15 @@ pub fn render<B: Backend + ?Sized>(
     };
     (film, stats)
 }
+
+/// `render` with the backend held in an `Accel`.
+pub fn render_with(
+    scene: &Scene,
+    accel: &crate::accel::Accel,
+    options: &RenderOptions,
+    progress: &dyn Progress,
+) -> (Film, RenderStats) {
+    match accel {
+        crate::accel::Accel::Native(b) => render(scene, b, options, progress),
+    }
+}

@@ -98,3 +98,121 @@ impl Geometry {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::spawn_ray;
+    use crate::sampling::{uniform_sphere, Rng};
+
+    /// Shapes of size `s` around the origin.
+    fn shapes(s: f32) -> Vec<(Geometry, bool)> {
+        let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) * s;
+        vec![
+            (
+                Geometry::Sphere(Sphere {
+                    center: v(0.3, -0.2, 0.1),
+                    radius: s,
+                }),
+                true,
+            ),
+            (
+                Geometry::Cuboid(Cuboid {
+                    min: v(-1.0, -0.5, -0.7),
+                    max: v(0.8, 0.9, 0.6),
+                }),
+                true,
+            ),
+            (
+                Geometry::Quad(Quad::new(v(-1.0, 0.1, -1.0), v(2.0, 0.3, 0.0), v(0.0, 0.2, 2.0)).unwrap()),
+                false,
+            ),
+            (Geometry::Plane(Plane::new(v(0.0, 0.2, 0.0), Vec3::new(0.1, 1.0, 0.2))), false),
+            (
+                Geometry::Mesh(Mesh {
+                    positions: vec![v(-1.0, 0.0, -1.0), v(1.0, 0.2, -0.5), v(0.0, -0.1, 1.0)],
+                    indices: vec![[0, 1, 2]],
+                    uvs: None,
+                }),
+                false,
+            ),
+        ]
+    }
+
+    /// From points on each shape, 1,000 random directions: leaving rays
+    /// never hit the (convex or flat) shape again; entering rays of closed
+    /// shapes always find the exit, away from where they started.
+    #[test]
+    fn reintersection_has_no_self_hits_and_finds_exits_at_every_scale() {
+        let mut rng = Rng::new(42, 1);
+        for scale in [1e-4f32, 1e-2, 1.0, 1e2, 1e4] {
+            for (g, closed) in shapes(scale) {
+                let mut hits = 0;
+                for _ in 0..20 {
+                    // A ray from far outside towards the shape's middle.
+                    let target = Vec3::new(0.0, 0.1, 0.0) * scale
+                        + 0.3 * scale * uniform_sphere(rng.next_2d());
+                    let origin = target + 10.0 * scale * uniform_sphere(rng.next_2d());
+                    let ray = Ray::new(origin, (target - origin).normalize());
+                    let Some(h) = g.intersect(0, &ray) else { continue };
+                    hits += 1;
+                    let sp = g.surface(0, &ray, &h);
+                    assert!(sp.p.is_finite() && sp.n.is_finite(), "{} at {scale}", g.name());
+                    let (mut self_hits, mut missed_exits) = (0, 0);
+                    for _ in 0..1000 {
+                        let w = uniform_sphere(rng.next_2d());
+                        let r = spawn_ray(sp.p, sp.p_err, sp.n, w);
+                        let again = g.intersect(0, &r);
+                        let leaving = w.dot(sp.n) > 0.0;
+                        if leaving || !closed {
+                            if again.is_some() {
+                                self_hits += 1;
+                            }
+                        } else {
+                            match again {
+                                Some(e) if (r.at(e.t) - sp.p).length() > 1e-4 * scale => {}
+                                Some(e) if w.dot(sp.n).abs() < 1e-3 && e.t > 0.0 => {}
+                                _ => missed_exits += 1,
+                            }
+                        }
+                    }
+                    assert_eq!(self_hits, 0, "{} at scale {scale}: self-hits", g.name());
+                    assert_eq!(missed_exits, 0, "{} at scale {scale}: missed exits", g.name());
+                }
+                assert!(hits >= 5, "{} at scale {scale}: only {hits} probe hits", g.name());
+            }
+        }
+    }
+
+    #[test]
+    fn axis_parallel_rays_give_no_nan() {
+        for (g, _) in shapes(1.0) {
+            for d in [Vec3::X, -Vec3::Y, Vec3::Z] {
+                let ray = Ray::new(Vec3::new(0.0, 0.15, 0.0) - 5.0 * d, d);
+                if let Some(h) = g.intersect(0, &ray) {
+                    assert!(h.t.is_finite() && h.u.is_finite() && h.v.is_finite(), "{}", g.name());
+                    let sp = g.surface(0, &ray, &h);
+                    assert!(sp.p.is_finite() && sp.n.is_finite());
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn degenerate_triangles_are_never_hit() {
+        let m = Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X, Vec3::ZERO],
+            indices: vec![[0, 1, 2], [0, 0, 1], [0, 3, 1]],
+            uvs: None,
+        };
+        let mut rng = Rng::new(3, 3);
+        for _ in 0..10_000 {
+            let o = 2.0 * uniform_sphere(rng.next_2d());
+            let target = Vec3::new(rng.next_f32() * 2.0, 0.0, 0.0);
+            let ray = Ray::new(o, target - o);
+            for prim in 0..3 {
+                assert!(m.intersect_triangle(prim, &ray).is_none());
+            }
+        }
+    }
+}

@@ -72,7 +72,8 @@ impl Sphere {
         let p_err = gamma(5) * (p.abs() + Vec3::splat(self.radius));
         let phi = n.z.atan2(n.x);
         let u = 0.5 + phi / (2.0 * PI);
-        let v = n.y.clamp(-1.0, 1.0).acos() / PI;
+        // v = 1 at the +y pole, so an equirectangular image stands upright.
+        let v = 1.0 - n.y.clamp(-1.0, 1.0).acos() / PI;
         SurfacePoint {
             p,
             p_err,
