@@ -67,13 +67,22 @@ fn convex_diffuse_sphere_under_constant_sky_renders_albedo_times_sky() {
     // Every bounce ray from a convex shape escapes: L = kd * L_env exactly.
     let expected = [1.2, 0.6, 0.3];
     for backend in backends() {
-        let film = render_scene(&scene(&SPHERE_IN_ENVIRONMENT.replace("RR", "false")), backend);
+        let film = render_scene(
+            &scene(&SPHERE_IN_ENVIRONMENT.replace("RR", "false")),
+            backend,
+        );
         for c in 0..3 {
             let (mean, _) = mean_and_se(&film, c);
             // Without Russian roulette every sample is exactly kd * L.
-            assert!((mean - expected[c]).abs() < 1e-5, "{backend:?} channel {c}: {mean}");
+            assert!(
+                (mean - expected[c]).abs() < 1e-5,
+                "{backend:?} channel {c}: {mean}"
+            );
         }
-        let film = render_scene(&scene(&SPHERE_IN_ENVIRONMENT.replace("RR", "true")), backend);
+        let film = render_scene(
+            &scene(&SPHERE_IN_ENVIRONMENT.replace("RR", "true")),
+            backend,
+        );
         for c in 0..3 {
             let (mean, se) = mean_and_se(&film, c);
             // 5 standard errors: a false alarm once in ~1.7 million runs.
@@ -160,7 +169,10 @@ nee = true
     let behind = text.replace("eye = [0, 0, 5]", "eye = [0, 0, -5]");
     for backend in backends() {
         let img = render_scene(&scene(&behind), backend).image();
-        assert!(img.pixels.iter().all(|p| p.max_element() == 0.0), "{backend:?}");
+        assert!(
+            img.pixels.iter().all(|p| p.max_element() == 0.0),
+            "{backend:?}"
+        );
     }
 }
 
@@ -214,7 +226,10 @@ fn next_event_estimation_with_mis_counts_light_once() {
         // Pixel means are not independent of one another, but each film's
         // per-sample spread bounds the error of its mean; 5 combined SE.
         let bound = 5.0 * (sa * sa + sb * sb).sqrt();
-        assert!((ma - mb).abs() < bound, "{light}: NEE {ma} ± {sa} vs hit-only {mb} ± {sb}");
+        assert!(
+            (ma - mb).abs() < bound,
+            "{light}: NEE {ma} ± {sa} vs hit-only {mb} ± {sb}"
+        );
         assert!(ma > 0.01, "the light must light the scene: {ma}");
         // NEE must reduce the noise, or it is not doing its job.
         assert!(sa < sb, "NEE {sa} vs hit-only {sb}");
@@ -246,12 +261,18 @@ fn max_depth_counts_segments_like_mitsuba() {
 fn same_image_for_one_and_two_threads() {
     let s = scene(
         &LIT_BOX
-            .replace("LIGHT", "sphere\"\ncenter = [0.5, 1.5, 0.3]\nradius = 0.2\n#\"")
+            .replace(
+                "LIGHT",
+                "sphere\"\ncenter = [0.5, 1.5, 0.3]\nradius = 0.2\n#\"",
+            )
             .replace("NEE", "true")
             .replace("spp = 256", "spp = 16"),
     );
     let run = |threads| {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
         pool.install(|| render_scene(&s, BackendKind::Rust))
     };
     let one = run(1);

@@ -2,7 +2,6 @@
 //! (`Hit`); the scene turns that into a surface point with code shared by all
 //! backends, which is what lets them agree pixel by pixel.
 
-
 use crate::math::Ray;
 
 /// Preliminary hit: ray parameter, the scene's shape id (`geom`), the
@@ -69,7 +68,9 @@ impl std::str::FromStr for EmbreeQuality {
             "low" => Ok(Self::Low),
             "medium" => Ok(Self::Medium),
             "high" => Ok(Self::High),
-            _ => Err(format!("unknown Embree quality `{s}` (known: low, medium, high)")),
+            _ => Err(format!(
+                "unknown Embree quality `{s}` (known: low, medium, high)"
+            )),
         }
     }
 }
@@ -95,17 +96,38 @@ pub enum Accel {
 }
 
 impl Accel {
-    pub fn build(scene: &Arc<Scene>, kind: BackendKind, options: &BuildOptions) -> Result<Self, AccelError> {
+    pub fn build(
+        scene: &Arc<Scene>,
+        kind: BackendKind,
+        options: &BuildOptions,
+    ) -> Result<Self, AccelError> {
         let _ = options;
         match kind {
-            BackendKind::Rust | BackendKind::Auto => Ok(Accel::Native(NativeBackend::new(scene.clone()))),
+            BackendKind::Rust | BackendKind::Auto => {
+                Ok(Accel::Native(NativeBackend::new(scene.clone())))
+            }
             BackendKind::Embree => Err(AccelError::EmbreeMissing),
         }
     }
+}
 
-    pub fn name(&self) -> &'static str {
+/// Per-ray dispatch, for tests and tools; the render loop matches once.
+impl Backend for Accel {
+    fn name(&self) -> &'static str {
         match self {
             Accel::Native(b) => b.name(),
+        }
+    }
+
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        match self {
+            Accel::Native(b) => b.intersect(ray),
+        }
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        match self {
+            Accel::Native(b) => b.occluded(ray),
         }
     }
 }

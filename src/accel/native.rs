@@ -3,12 +3,12 @@
 //! outside it. Triangles are stored pre-transformed (`p0, e1, e2`) in the
 //! BVH's leaf order, so traversal reads them sequentially.
 
-use super::bvh::{Bvh, BuildQuality};
+use super::bvh::{BuildQuality, Bvh};
 use super::{Backend, Hit};
+use crate::math::Vec3;
 use crate::math::{Aabb, Ray};
 use crate::scene::shape::{intersect_triangle, PrimHit};
 use crate::scene::{Geometry, Scene};
-use crate::math::Vec3;
 use std::sync::Arc;
 
 #[derive(Clone, Copy, Debug)]
@@ -111,7 +111,8 @@ impl Backend for NativeBackend {
         let mut best = self
             .bvh
             .intersect_with(ray, |slot, r| {
-                self.intersect_prim(slot, r).map(|(h, geom, prim)| (h.t, (h, geom, prim)))
+                self.intersect_prim(slot, r)
+                    .map(|(h, geom, prim)| (h.t, (h, geom, prim)))
             })
             .map(|(t, _, (h, geom, prim))| Hit {
                 t,

@@ -9,6 +9,10 @@ pub struct Image {
 }
 impl Image {
     pub fn new(width: u32, height: u32, pixels: Vec<Vec3>) -> Self {
-        Self { width, height, pixels }
+        Self {
+            width,
+            height,
+            pixels,
+        }
     }
 }

@@ -62,7 +62,13 @@ impl Film {
         let pixels = self
             .sum
             .iter()
-            .map(|s| Vec3::new((s[0] * inv) as f32, (s[1] * inv) as f32, (s[2] * inv) as f32))
+            .map(|s| {
+                Vec3::new(
+                    (s[0] * inv) as f32,
+                    (s[1] * inv) as f32,
+                    (s[2] * inv) as f32,
+                )
+            })
             .collect();
         Image::new(self.width, self.height, pixels)
     }

@@ -5,9 +5,7 @@
 //! `Scene`. Every error names the file, the line and column, and the field.
 
 use super::shape::{Cuboid, Geometry, Mesh, Plane, Quad, Sphere};
-use super::{
-    Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform,
-};
+use super::{Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform};
 use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -231,7 +229,12 @@ impl Ctx<'_> {
     }
 
     /// Error about `field` of the table at `span`.
-    fn field_error(&self, span: &Range<usize>, field: &str, message: impl AsRef<str>) -> SceneError {
+    fn field_error(
+        &self,
+        span: &Range<usize>,
+        field: &str,
+        message: impl AsRef<str>,
+    ) -> SceneError {
         let at = self.find_key(span, field).unwrap_or(span.start);
         self.error_at(at, format!("`{field}`: {}", message.as_ref()))
     }
@@ -260,7 +263,11 @@ impl Ctx<'_> {
             } else {
                 "finite and non-negative".into()
             };
-            return Err(self.field_error(span, field, format!("every channel must be {range}, got {c}")));
+            return Err(self.field_error(
+                span,
+                field,
+                format!("every channel must be {range}, got {c}"),
+            ));
         }
         Ok(c)
     }
@@ -347,12 +354,23 @@ impl Ctx<'_> {
             let mut shape = Shape::new(geometry, material);
             shape.nee = sd.nee.unwrap_or(false);
             if shape.nee && !materials[material as usize].is_emissive() {
-                return Err(self.field_error(&span, "nee", "only emissive shapes can be sampled as lights"));
+                return Err(self.field_error(
+                    &span,
+                    "nee",
+                    "only emissive shapes can be sampled as lights",
+                ));
             }
             if shape.nee && matches!(shape.geometry, Geometry::Plane(_)) {
-                return Err(self.field_error(&span, "nee", "an infinite plane has no area to sample"));
+                return Err(self.field_error(
+                    &span,
+                    "nee",
+                    "an infinite plane has no area to sample",
+                ));
             }
-            for (field, v) in [("texture_scale", sd.texture_scale), ("texture_offset", sd.texture_offset)] {
+            for (field, v) in [
+                ("texture_scale", sd.texture_scale),
+                ("texture_offset", sd.texture_offset),
+            ] {
                 if let Some(v) = v {
                     if !Vec2::from(v).is_finite() {
                         return Err(self.field_error(&span, field, "must be finite"));
@@ -382,12 +400,24 @@ impl Ctx<'_> {
             }
             point_lights.push(PointLight {
                 position: self.finite3(&span, "position", ld.position)?,
-                intensity: self.color(&span, "intensity", Some(ld.intensity), Rgb::ZERO, f32::INFINITY)?,
+                intensity: self.color(
+                    &span,
+                    "intensity",
+                    Some(ld.intensity),
+                    Rgb::ZERO,
+                    f32::INFINITY,
+                )?,
             });
         }
 
         let environment = match &desc.environment {
-            Some(e) => Some(self.color(&e.span(), "radiance", Some(e.get_ref().radiance), Rgb::ZERO, f32::INFINITY)?),
+            Some(e) => Some(self.color(
+                &e.span(),
+                "radiance",
+                Some(e.get_ref().radiance),
+                Rgb::ZERO,
+                f32::INFINITY,
+            )?),
             None => None,
         };
 
@@ -412,11 +442,19 @@ impl Ctx<'_> {
             return Err(self.field_error(&span, "target", "must differ from `eye`"));
         }
         if (target - eye).cross(up).length_squared() == 0.0 {
-            return Err(self.field_error(&span, "up", "must not be parallel to the view direction"));
+            return Err(self.field_error(
+                &span,
+                "up",
+                "must not be parallel to the view direction",
+            ));
         }
         let fov = cd.fov.unwrap_or(40.0);
         if !(fov > 0.0 && fov < 180.0) {
-            return Err(self.field_error(&span, "fov", format!("must be in (0, 180) degrees, got {fov}")));
+            return Err(self.field_error(
+                &span,
+                "fov",
+                format!("must be in (0, 180) degrees, got {fov}"),
+            ));
         }
         let [width, height] = cd.resolution.unwrap_or([512, 512]);
         if width == 0 || height == 0 || width > 1 << 16 || height > 1 << 16 {
@@ -457,7 +495,11 @@ impl Ctx<'_> {
         match (&td.file, &td.checker) {
             (Some(file), None) => {
                 if td.squares.is_some() {
-                    return Err(self.field_error(&span, "squares", "only a checker texture has squares"));
+                    return Err(self.field_error(
+                        &span,
+                        "squares",
+                        "only a checker texture has squares",
+                    ));
                 }
                 let path = self.resolve_file(&span, file)?;
                 let img = crate::image::io::read_texture(&path).map_err(|e| {
@@ -540,7 +582,11 @@ impl Ctx<'_> {
         }
         let ior = md.ior.unwrap_or(1.5);
         if !(ior > 0.0 && ior.is_finite()) {
-            return Err(self.field_error(&span, "ior", format!("must be positive and finite, got {ior}")));
+            return Err(self.field_error(
+                &span,
+                "ior",
+                format!("must be positive and finite, got {ior}"),
+            ));
         }
         let emission = self.color(&span, "emission", md.emission, Rgb::ZERO, f32::INFINITY)?;
         let texture = match &md.texture {
@@ -597,23 +643,34 @@ impl Ctx<'_> {
                 return Err(self.field_error(
                     span,
                     field,
-                    format!("a {} has no `{field}` (it takes: {})", sd.kind, used.join(", ")),
+                    format!(
+                        "a {} has no `{field}` (it takes: {})",
+                        sd.kind,
+                        used.join(", ")
+                    ),
                 ));
             }
         }
-        let need = |field: &str| self.error_at(span.start, format!("a {} needs `{field}`", sd.kind));
+        let need =
+            |field: &str| self.error_at(span.start, format!("a {} needs `{field}`", sd.kind));
         Ok(match sd.kind.as_str() {
             "sphere" => {
-                let center = self.finite3(span, "center", sd.center.ok_or_else(|| need("center"))?)?;
+                let center =
+                    self.finite3(span, "center", sd.center.ok_or_else(|| need("center"))?)?;
                 let radius = sd.radius.ok_or_else(|| need("radius"))?;
                 if !(radius > 0.0 && radius.is_finite()) {
-                    return Err(self.field_error(span, "radius", format!("must be positive and finite, got {radius}")));
+                    return Err(self.field_error(
+                        span,
+                        "radius",
+                        format!("must be positive and finite, got {radius}"),
+                    ));
                 }
                 Geometry::Sphere(Sphere { center, radius })
             }
             "plane" => {
                 let point = self.finite3(span, "point", sd.point.ok_or_else(|| need("point"))?)?;
-                let normal = self.finite3(span, "normal", sd.normal.ok_or_else(|| need("normal"))?)?;
+                let normal =
+                    self.finite3(span, "normal", sd.normal.ok_or_else(|| need("normal"))?)?;
                 if normal.length_squared() == 0.0 {
                     return Err(self.field_error(span, "normal", "must not be zero"));
                 }
@@ -622,7 +679,11 @@ impl Ctx<'_> {
             "quad" => {
                 let corners = sd.corners.as_ref().ok_or_else(|| need("corners"))?;
                 if corners.len() != 4 {
-                    return Err(self.field_error(span, "corners", format!("needs 4 points, got {}", corners.len())));
+                    return Err(self.field_error(
+                        span,
+                        "corners",
+                        format!("needs 4 points, got {}", corners.len()),
+                    ));
                 }
                 let mut p = [Vec3::ZERO; 4];
                 for (i, c) in corners.iter().enumerate() {
@@ -638,9 +699,10 @@ impl Ctx<'_> {
                         format!("not a parallelogram: p2 is {off} away from p1 + p3 - p0"),
                     ));
                 }
-                Geometry::Quad(Quad::new(p[0], e1, e2).ok_or_else(|| {
-                    self.field_error(span, "corners", "the quad has no area")
-                })?)
+                Geometry::Quad(
+                    Quad::new(p[0], e1, e2)
+                        .ok_or_else(|| self.field_error(span, "corners", "the quad has no area"))?,
+                )
             }
             "cuboid" => {
                 let min = self.finite3(span, "min", sd.min.ok_or_else(|| need("min"))?)?;
@@ -653,16 +715,26 @@ impl Ctx<'_> {
             "triangle" => {
                 let vertices = sd.vertices.as_ref().ok_or_else(|| need("vertices"))?;
                 if vertices.len() != 3 {
-                    return Err(self.field_error(span, "vertices", format!("needs 3 points, got {}", vertices.len())));
+                    return Err(self.field_error(
+                        span,
+                        "vertices",
+                        format!("needs 3 points, got {}", vertices.len()),
+                    ));
                 }
                 let mut positions = Vec::with_capacity(3);
                 for v in vertices {
                     positions.push(self.finite3(span, "vertices", *v)?);
                 }
                 let uvs = match &sd.uvs {
-                    Some(uvs) if uvs.len() == 3 => Some(uvs.iter().map(|&u| Vec2::from(u)).collect()),
+                    Some(uvs) if uvs.len() == 3 => {
+                        Some(uvs.iter().map(|&u| Vec2::from(u)).collect())
+                    }
                     Some(uvs) => {
-                        return Err(self.field_error(span, "uvs", format!("needs 3 pairs, got {}", uvs.len())))
+                        return Err(self.field_error(
+                            span,
+                            "uvs",
+                            format!("needs 3 pairs, got {}", uvs.len()),
+                        ))
                     }
                     None => None,
                 };
@@ -742,7 +814,9 @@ mod tests {
     const MINIMAL: &str = "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n";
 
     fn err(text: &str) -> SceneError {
-        load_str(text, Path::new("test.toml")).err().expect("must fail")
+        load_str(text, Path::new("test.toml"))
+            .err()
+            .expect("must fail")
     }
 
     #[test]
@@ -756,9 +830,14 @@ mod tests {
 
     #[test]
     fn unknown_key_names_line_column_and_suggests() {
-        let e = err(&format!("{MINIMAL}[[shapes]]\ntype = \"sphere\"\ncenter = [0,0,0]\nradus = 1\n"));
+        let e = err(&format!(
+            "{MINIMAL}[[shapes]]\ntype = \"sphere\"\ncenter = [0,0,0]\nradus = 1\n"
+        ));
         assert_eq!(e.location.map(|l| l.0), Some(7), "{e}");
-        assert!(e.message.contains("radus") && e.message.contains("did you mean `radius`"), "{e}");
+        assert!(
+            e.message.contains("radus") && e.message.contains("did you mean `radius`"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -785,8 +864,13 @@ mod tests {
 
     #[test]
     fn missing_mesh_file_says_where_it_looked() {
-        let e = err(&format!("{MINIMAL}[[shapes]]\ntype = \"mesh\"\nfile = \"nothing-here.ply\"\n"));
-        assert!(e.message.contains("nothing-here.ply") && e.message.contains("looked for"), "{e}");
+        let e = err(&format!(
+            "{MINIMAL}[[shapes]]\ntype = \"mesh\"\nfile = \"nothing-here.ply\"\n"
+        ));
+        assert!(
+            e.message.contains("nothing-here.ply") && e.message.contains("looked for"),
+            "{e}"
+        );
         assert_eq!(e.location.map(|l| l.0), Some(6));
     }
 

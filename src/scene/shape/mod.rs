@@ -124,10 +124,15 @@ mod tests {
                 true,
             ),
             (
-                Geometry::Quad(Quad::new(v(-1.0, 0.1, -1.0), v(2.0, 0.3, 0.0), v(0.0, 0.2, 2.0)).unwrap()),
+                Geometry::Quad(
+                    Quad::new(v(-1.0, 0.1, -1.0), v(2.0, 0.3, 0.0), v(0.0, 0.2, 2.0)).unwrap(),
+                ),
                 false,
             ),
-            (Geometry::Plane(Plane::new(v(0.0, 0.2, 0.0), Vec3::new(0.1, 1.0, 0.2))), false),
+            (
+                Geometry::Plane(Plane::new(v(0.0, 0.2, 0.0), Vec3::new(0.1, 1.0, 0.2))),
+                false,
+            ),
             (
                 Geometry::Mesh(Mesh {
                     positions: vec![v(-1.0, 0.0, -1.0), v(1.0, 0.2, -0.5), v(0.0, -0.1, 1.0)],
@@ -154,10 +159,16 @@ mod tests {
                         + 0.3 * scale * uniform_sphere(rng.next_2d());
                     let origin = target + 10.0 * scale * uniform_sphere(rng.next_2d());
                     let ray = Ray::new(origin, (target - origin).normalize());
-                    let Some(h) = g.intersect(0, &ray) else { continue };
+                    let Some(h) = g.intersect(0, &ray) else {
+                        continue;
+                    };
                     hits += 1;
                     let sp = g.surface(0, &ray, &h);
-                    assert!(sp.p.is_finite() && sp.n.is_finite(), "{} at {scale}", g.name());
+                    assert!(
+                        sp.p.is_finite() && sp.n.is_finite(),
+                        "{} at {scale}",
+                        g.name()
+                    );
                     let (mut self_hits, mut missed_exits) = (0, 0);
                     for _ in 0..1000 {
                         let w = uniform_sphere(rng.next_2d());
@@ -177,9 +188,18 @@ mod tests {
                         }
                     }
                     assert_eq!(self_hits, 0, "{} at scale {scale}: self-hits", g.name());
-                    assert_eq!(missed_exits, 0, "{} at scale {scale}: missed exits", g.name());
+                    assert_eq!(
+                        missed_exits,
+                        0,
+                        "{} at scale {scale}: missed exits",
+                        g.name()
+                    );
                 }
-                assert!(hits >= 5, "{} at scale {scale}: only {hits} probe hits", g.name());
+                assert!(
+                    hits >= 5,
+                    "{} at scale {scale}: only {hits} probe hits",
+                    g.name()
+                );
             }
         }
     }
@@ -190,7 +210,11 @@ mod tests {
             for d in [Vec3::X, -Vec3::Y, Vec3::Z] {
                 let ray = Ray::new(Vec3::new(0.0, 0.15, 0.0) - 5.0 * d, d);
                 if let Some(h) = g.intersect(0, &ray) {
-                    assert!(h.t.is_finite() && h.u.is_finite() && h.v.is_finite(), "{}", g.name());
+                    assert!(
+                        h.t.is_finite() && h.u.is_finite() && h.v.is_finite(),
+                        "{}",
+                        g.name()
+                    );
                     let sp = g.surface(0, &ray, &h);
                     assert!(sp.p.is_finite() && sp.n.is_finite());
                 }

@@ -1,0 +1,149 @@
+//! Every compiled backend against brute force (every primitive's own
+//! intersection routine, in order) on random scenes and random rays.
+
+use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Hit};
+use luz::math::{Ray, Vec3};
+use luz::sampling::{uniform_sphere, Rng};
+use luz::scene::shape::{Cuboid, Mesh, Plane, Quad, Sphere};
+use luz::scene::{Camera, Geometry, Material, RenderSettings, Scene, Shape};
+use std::sync::Arc;
+
+fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
+    let mut shapes = Vec::new();
+    let p = |rng: &mut Rng| {
+        Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 * scale - Vec3::splat(scale)
+    };
+    for _ in 0..30 {
+        let c = p(rng);
+        shapes.push(Geometry::Sphere(Sphere {
+            center: c,
+            radius: 0.05 * scale + 0.1 * scale * rng.next_f32(),
+        }));
+    }
+    for _ in 0..30 {
+        let o = p(rng);
+        let e1 = 0.2 * scale * uniform_sphere(rng.next_2d());
+        let e2 = 0.2 * scale * uniform_sphere(rng.next_2d());
+        if let Some(q) = Quad::new(o, e1, e2) {
+            shapes.push(Geometry::Quad(q));
+        }
+    }
+    for _ in 0..20 {
+        let a = p(rng);
+        let b = a
+            + Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 0.3 * scale
+            + Vec3::splat(1e-3 * scale);
+        shapes.push(Geometry::Cuboid(Cuboid { min: a, max: b }));
+    }
+    for _ in 0..3 {
+        let mut positions = Vec::new();
+        let mut indices = Vec::new();
+        for i in 0..400u32 {
+            let a = p(rng);
+            positions.push(a);
+            positions.push(a + 0.15 * scale * uniform_sphere(rng.next_2d()));
+            positions.push(a + 0.15 * scale * uniform_sphere(rng.next_2d()));
+            indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
+        }
+        shapes.push(Geometry::Mesh(Mesh {
+            positions,
+            indices,
+            uvs: None,
+        }));
+    }
+    shapes.push(Geometry::Plane(Plane::new(
+        Vec3::new(0.0, -1.5 * scale, 0.0),
+        Vec3::new(0.1, 1.0, -0.2),
+    )));
+    let camera = Camera {
+        eye: Vec3::Z,
+        target: Vec3::ZERO,
+        up: Vec3::Y,
+        fov_y: 40.0,
+        width: 1,
+        height: 1,
+    };
+    Arc::new(Scene::new(
+        camera,
+        vec![Material::default()],
+        vec![],
+        shapes.into_iter().map(|g| Shape::new(g, 0)).collect(),
+        vec![],
+        None,
+        RenderSettings::default(),
+    ))
+}
+
+fn brute_force(scene: &Scene, ray: &Ray) -> Option<Hit> {
+    let mut r = *ray;
+    let mut best = None;
+    for (geom, s) in scene.shapes.iter().enumerate() {
+        for prim in 0..s.geometry.primitive_count() as u32 {
+            if let Some(h) = s.geometry.intersect(prim, &r) {
+                r.t_max = h.t;
+                best = Some(Hit {
+                    t: h.t,
+                    geom: geom as u32,
+                    prim,
+                    u: h.u,
+                    v: h.v,
+                });
+            }
+        }
+    }
+    best
+}
+
+fn random_ray(rng: &mut Rng, scale: f32) -> Ray {
+    let o = 2.0 * scale * uniform_sphere(rng.next_2d()) * rng.next_f32().sqrt();
+    let mut d = uniform_sphere(rng.next_2d());
+    // A tenth of the rays are exactly axis-parallel.
+    if rng.next_f32() < 0.1 {
+        let axis = (rng.next_u32() % 3) as usize;
+        let mut a = Vec3::ZERO;
+        a[axis] = if rng.next_f32() < 0.5 { 1.0 } else { -1.0 };
+        d = a;
+    }
+    let mut ray = Ray::new(o, d);
+    if rng.next_f32() < 0.2 {
+        ray.t_max = scale * rng.next_f32();
+    }
+    ray
+}
+
+#[test]
+fn native_backend_matches_brute_force_on_1e5_rays_at_three_scales() {
+    let mut rng = Rng::new(11, 0);
+    for scale in [1e-3f32, 1.0, 1e4] {
+        let scene = random_scene(&mut rng, scale);
+        let native = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        assert_eq!(native.name(), "rust");
+        let (mut hits, mut occluded) = (0, 0);
+        for _ in 0..100_000 {
+            let ray = random_ray(&mut rng, scale);
+            let expected = brute_force(&scene, &ray);
+            let got = native.intersect(&ray);
+            match (expected, got) {
+                (Some(e), Some(g)) => {
+                    hits += 1;
+                    // Two primitives may share the exact t; then only t must agree.
+                    assert_eq!(e.t, g.t, "scale {scale}: {ray:?}");
+                    if (e.geom, e.prim) != (g.geom, g.prim) {
+                        let other = &scene.shapes[g.geom as usize].geometry;
+                        assert_eq!(other.intersect(g.prim, &ray).map(|h| h.t), Some(g.t));
+                    } else {
+                        assert_eq!((e.u, e.v), (g.u, g.v));
+                    }
+                }
+                (None, None) => {}
+                (e, g) => panic!("scale {scale}: brute force {e:?}, native {g:?} for {ray:?}"),
+            }
+            let occ = native.occluded(&ray);
+            assert_eq!(occ, expected.is_some(), "occluded, scale {scale}: {ray:?}");
+            occluded += occ as u32;
+        }
+        // The test only has teeth if many rays hit and many miss.
+        assert!(hits > 10_000 && hits < 95_000, "scale {scale}: {hits} hits");
+        assert_eq!(occluded, hits);
+    }
+}
