@@ -974,6 +974,366 @@ mod tests {
             .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets"))
     }
 
+    fn temp_path(name: &str) -> PathBuf {
+        static N: AtomicUsize = AtomicUsize::new(0);
+        let dir = std::env::temp_dir().join(format!(
+            "luz-mesh-io-{}-{}",
+            std::process::id(),
+            N.fetch_add(1, Ordering::Relaxed)
+        ));
+        std::fs::create_dir_all(&dir).unwrap();
+        dir.join(name)
+    }
+
+    fn write(name: &str, data: &[u8]) -> PathBuf {
+        let path = temp_path(name);
+        std::fs::write(&path, data).unwrap();
+        path
+    }
+
+    fn load_str(name: &str, text: &str) -> Result<Mesh, MeshError> {
+        load_mesh(&write(name, text.as_bytes()))
+    }
+
+    /// The error message, checked to start with the file's path.
+    fn err(name: &str, data: &[u8]) -> String {
+        let path = write(name, data);
+        let e = load_mesh(&path).expect_err("should fail").to_string();
+        let prefix = path.display().to_string();
+        assert!(e.starts_with(&prefix), "{e}");
+        e[prefix.len()..].to_string()
+    }
+
+    const ASCII: &str = "ply\r
+format ascii 1.0\r
+comment made by hand\r
+element vertex 5\r
+property float x\r
+property double y\r
+property int z\r
+property list uchar float extra\r
+property float s\r
+property float t\r
+element face 2\r
+property uchar flags\r
+property list uchar int vertex_indices\r
+property list int float weights\r
+element edge 1\r
+property list uchar int ends\r
+end_header\r
+0 0 0 2 7 8 0 0\r
+1 0 0 0 1 0\r
+1 1.5 0 1 9 1 1\r
+0 1 -2 0 0 1\r
+0.5e1 2.5e-1 7 3 1 2 3 0.5 0.5\r
+1 4 0 1 2 3 1 0.5\r
+0 3 0 2 4 0\r
+2 1 2\r
+";
+
+    fn check_example(m: &Mesh) {
+        assert_eq!(m.positions.len(), 5);
+        assert_eq!(m.positions[2], Vec3::new(1.0, 1.5, 0.0));
+        assert_eq!(m.positions[3], Vec3::new(0.0, 1.0, -2.0));
+        assert_eq!(m.positions[4], Vec3::new(5.0, 0.25, 7.0));
+        assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3], [0, 2, 4]]);
+        let uvs = m.uvs.as_ref().expect("uvs");
+        assert_eq!(uvs[1], Vec2::new(1.0, 0.0));
+        assert_eq!(uvs[4], Vec2::new(0.5, 0.5));
+    }
+
+    #[test]
+    fn ascii_ply_with_skipped_lists_and_quads() {
+        check_example(&load_str("a.ply", ASCII).unwrap());
+    }
+
+    /// The ASCII example as binary, with the same types.
+    fn binary_example(be: bool, cut: usize) -> Vec<u8> {
+        let format = if be {
+            "binary_big_endian"
+        } else {
+            "binary_little_endian"
+        };
+        let header = ASCII.replace("format ascii", &format!("format {format}"));
+        let header = &header[..header.find("end_header").unwrap() + 12];
+        let mut out = header.as_bytes().to_vec();
+        let mut put = |b: &[u8]| {
+            let mut b = b.to_vec();
+            if be {
+                b.reverse();
+            }
+            out.extend_from_slice(&b);
+        };
+        let verts: [([f32; 3], &[f32], [f32; 2]); 5] = [
+            ([0.0, 0.0, 0.0], &[7.0, 8.0], [0.0, 0.0]),
+            ([1.0, 0.0, 0.0], &[], [1.0, 0.0]),
+            ([1.0, 1.5, 0.0], &[9.0], [1.0, 1.0]),
+            ([0.0, 1.0, -2.0], &[], [0.0, 1.0]),
+            ([5.0, 0.25, 7.0], &[1.0, 2.0, 3.0], [0.5, 0.5]),
+        ];
+        for (p, extra, uv) in verts {
+            put(&p[0].to_le_bytes());
+            put(&(p[1] as f64).to_le_bytes());
+            put(&(p[2] as i32).to_le_bytes());
+            put(&[extra.len() as u8]);
+            for e in extra {
+                put(&e.to_le_bytes());
+            }
+            put(&uv[0].to_le_bytes());
+            put(&uv[1].to_le_bytes());
+        }
+        let faces: [(&[i32], &[f32]); 2] = [(&[0, 1, 2, 3], &[0.5]), (&[0, 2, 4], &[])];
+        for (idx, w) in faces {
+            put(&[1]);
+            put(&[idx.len() as u8]);
+            for i in idx {
+                put(&i.to_le_bytes());
+            }
+            put(&(w.len() as i32).to_le_bytes());
+            for x in w {
+                put(&x.to_le_bytes());
+            }
+        }
+        put(&[2]);
+        put(&1i32.to_le_bytes());
+        put(&2i32.to_le_bytes());
+        out.truncate(out.len() - cut);
+        out
+    }
+
+    #[test]
+    fn binary_ply_both_endians() {
+        for be in [false, true] {
+            let path = write("b.ply", &binary_example(be, 0));
+            check_example(&load_mesh(&path).unwrap());
+        }
+    }
+
+    #[test]
+    fn fast_path_layout_and_index_types() {
+        // float xyz + uchar/uint lists (the common layout), and ushort/short
+        // indices through the general path, big endian.
+        for (ct, it, be) in [
+            ("uchar", "uint", false),
+            ("uchar", "int", true),
+            ("ushort", "short", true),
+            ("uint", "uchar", false),
+        ] {
+            let fmt = if be { "big" } else { "little" };
+            let mut data = format!(
+                "ply\nformat binary_{fmt}_endian 1.0\nelement vertex 4\nproperty float x\n\
+                 property float y\nproperty float z\nelement face 1\n\
+                 property list {ct} {it} vertex_index\nend_header\n"
+            )
+            .into_bytes();
+            let mut put = |b: &[u8]| {
+                let mut b = b.to_vec();
+                if be {
+                    b.reverse();
+                }
+                data.extend_from_slice(&b);
+            };
+            for p in [[0f32, 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]] {
+                for c in p {
+                    put(&c.to_le_bytes());
+                }
+            }
+            let sized = |ty: &str, v: u32| -> Vec<u8> {
+                match ty {
+                    "uchar" => vec![v as u8],
+                    "ushort" | "short" => (v as u16).to_le_bytes().to_vec(),
+                    _ => v.to_le_bytes().to_vec(),
+                }
+            };
+            put(&sized(ct, 4));
+            for i in [3, 2, 1, 0] {
+                put(&sized(it, i));
+            }
+            let m = load_mesh(&write("f.ply", &data)).unwrap();
+            assert_eq!(m.indices, vec![[3, 2, 1], [3, 1, 0]], "{ct} {it} {fmt}");
+            assert_eq!(m.positions[2], Vec3::new(1.0, 1.0, 0.0));
+            assert!(m.uvs.is_none());
+        }
+    }
+
+    #[test]
+    fn gzipped_ply() {
+        use flate2::write::GzEncoder;
+        use std::io::Write;
+        for data in [ASCII.as_bytes().to_vec(), binary_example(false, 0)] {
+            let mut gz = GzEncoder::new(Vec::new(), flate2::Compression::default());
+            gz.write_all(&data).unwrap();
+            let path = write("z.ply.gz", &gz.finish().unwrap());
+            check_example(&load_mesh(&path).unwrap());
+        }
+        let e = err("bad.ply.gz", &[0x1f, 0x8b, 8, 0, 1, 2]);
+        assert!(e.contains("gzip"), "{e}");
+    }
+
+    #[test]
+    fn obj_with_uvs_merged_across_objects() {
+        let text = "mtllib missing.mtl\no a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n\
+                    o b\nv 0 0 1\nv 1 0 1\nv 1 1 1\nvt 0.5 0.5\nf -3/1 -2/2 -1/5\n";
+        let m = load_str("q.obj", text).unwrap();
+        assert_eq!(m.indices.len(), 3);
+        assert_eq!(m.positions.len(), 7);
+        let uvs = m.uvs.as_ref().expect("uvs");
+        assert_eq!(uvs.len(), 7);
+        for t in &m.indices {
+            for &i in t {
+                assert!((i as usize) < m.positions.len());
+            }
+        }
+        // The second object's triangle refers to its own vertices.
+        let [a, b, c] = m.indices[2];
+        assert_eq!(m.positions[a as usize], Vec3::new(0.0, 0.0, 1.0));
+        assert_eq!(m.positions[b as usize], Vec3::new(1.0, 0.0, 1.0));
+        assert_eq!(m.positions[c as usize], Vec3::new(1.0, 1.0, 1.0));
+        assert_eq!(uvs[c as usize], Vec2::new(0.5, 0.5));
+        // Fan triangulation of the quad keeps its area.
+        let area: f32 = (0..2).map(|i| m.triangle_area(i)).sum();
+        assert!((area - 1.0).abs() < 1e-6);
+        // Without vt on every vertex there are no uvs.
+        let m = load_str("n.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(m.uvs.is_none());
+    }
+
+    fn ply(body: &str) -> String {
+        format!(
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+             property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+             end_header\n{body}"
+        )
+    }
+
+    #[test]
+    fn ascii_errors_name_line_and_field() {
+        let e = err("e.ply", ply("0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n").as_bytes());
+        assert_eq!(
+            e,
+            ":11: vertex property `y`: expected a number, found `abc`"
+        );
+        let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 1 x\n").as_bytes());
+        assert!(
+            e.starts_with(":13: face property `vertex_indices`: expected an integer"),
+            "{e}"
+        );
+        let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n").as_bytes());
+        assert_eq!(
+            e,
+            ":13: face 0: vertex index 3 is out of range (3 vertices)"
+        );
+        let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n").as_bytes());
+        assert!(e.contains("vertex index -1 is out of range"), "{e}");
+        let e = err("e.ply", ply("0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n").as_bytes());
+        assert!(
+            e.starts_with(":11: vertex 1: coordinates must be finite"),
+            "{e}"
+        );
+        let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 inf\n3 0 1 2\n").as_bytes());
+        assert!(
+            e.starts_with(":12: vertex 2: coordinates must be finite"),
+            "{e}"
+        );
+        let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 1").as_bytes());
+        assert!(e.starts_with(":13: file ends early: face 0 of 1"), "{e}");
+        let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n2 0 1\n").as_bytes());
+        assert!(e.contains(":13: face 0 has 2 vertices"), "{e}");
+    }
+
+    #[test]
+    fn header_errors() {
+        let e = err("h.ply", b"ply\nformat ascii 1.0\nelement vertex 0\n");
+        assert!(e.contains("no `end_header`"), "{e}");
+        let e = err(
+            "h.ply",
+            b"ply\nformat binary_middle_endian 1.0\nend_header\n",
+        );
+        assert_eq!(e, ":2: unsupported PLY format `binary_middle_endian`");
+        let e = err("h.ply", b"solid cube\nend_header\n");
+        assert!(e.starts_with(":1: not a PLY file"), "{e}");
+        let e = err(
+            "h.ply",
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty flt x\nend_header\n",
+        );
+        assert_eq!(e, ":4: unknown property type `flt`");
+        let e = err(
+            "h.ply",
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
+        );
+        assert!(e.contains("no `face` element"), "{e}");
+        let e = err(
+            "h.ply",
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n0 0\n",
+        );
+        assert!(
+            e.contains(":3: the `vertex` element has no `z` property"),
+            "{e}"
+        );
+        let e = err("h.stl", b"solid\n");
+        assert!(e.contains("unsupported mesh format"), "{e}");
+        let missing = temp_path("missing.ply");
+        let e = load_mesh(&missing).unwrap_err().to_string();
+        assert!(e.starts_with(&missing.display().to_string()), "{e}");
+    }
+
+    #[test]
+    fn zero_faces_is_an_error() {
+        let text = ply("0 0 0\n1 0 0\n0 1 0\n").replace("face 1", "face 0");
+        let e = err("z.ply", text.as_bytes());
+        assert_eq!(e, ": the file has no faces");
+        let e = err("z.obj", b"v 0 0 0\nv 1 0 0\n");
+        assert_eq!(e, ": the file has no faces");
+    }
+
+    #[test]
+    fn binary_errors() {
+        for be in [false, true] {
+            for cut in [1, 5, 20, 60, 150, 200] {
+                let e = err("t.ply", &binary_example(be, cut));
+                assert!(e.starts_with(": file ends early"), "{e}");
+            }
+        }
+        let e = err("t.ply", &binary_example(false, 60));
+        assert!(e.contains("vertex 4 of 5"), "{e}");
+        // Index 4 -> 9 in the last face.
+        let mut data = binary_example(false, 0);
+        let at = data.len() - 9 - 4 - 4;
+        data[at..at + 4].copy_from_slice(&9i32.to_le_bytes());
+        let e = err("t.ply", &data);
+        assert_eq!(e, ": face 1: vertex index 9 is out of range (5 vertices)");
+        // A NaN x in vertex 1.
+        let mut data = binary_example(false, 0);
+        let body = data.windows(10).position(|w| w == b"end_header").unwrap() + 12;
+        let at = body + 4 + 8 + 4 + 1 + 8 + 8;
+        data[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        let e = err("t.ply", &data);
+        assert!(
+            e.starts_with(": vertex 1: coordinates must be finite"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn obj_errors_name_the_line() {
+        let e = err("o.obj", b"v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n");
+        assert!(
+            e.starts_with(":2: vertex coordinate 1: expected a number, found `x`"),
+            "{e}"
+        );
+        let e = err("o.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n");
+        assert!(
+            e.starts_with(":5: face: vertex index `4` is out of range"),
+            "{e}"
+        );
+        let e = err("o.obj", b"v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
+        assert!(
+            e.starts_with(":2: vertex coordinate 2: must be finite"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn all_assets_load() {
         let dir = assets();
