@@ -181,7 +181,7 @@ impl ToneMap {
                 };
                 exposed.map(|p| {
                     let l = luminance(p);
-                    let s = if !(l > 0.0) {
+                    let s = if l.is_nan() || l <= 0.0 {
                         0.0
                     } else if !l.is_finite() {
                         // Infinite luminance: saturate to white.
