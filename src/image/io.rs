@@ -108,7 +108,7 @@ const READ_FORMATS: &str = "OpenEXR, Radiance HDR, PPM (P2/P3/P5/P6, #MAX= HDR),
 const TEXTURE_FORMATS: &str = "PPM, PNG, JPEG";
 const WRITE_EXTENSIONS: &str = ".exr, .hdr, .ppm, .png";
 
-/// Options for [`write`].
+/// Options for [`write()`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WriteOptions {
     /// Tone mapping for PNG output (HDR formats store linear values).
