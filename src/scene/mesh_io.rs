@@ -643,6 +643,7 @@ fn ascii_body<'a>(
         line: first_line,
     };
     for (el, roles) in elements.iter().zip(roles) {
+        let is_vertex = roles.contains(&Role::Value(0));
         for r in 0..el.count {
             let mut v = [0f32; 5];
             let mut line = 0;
@@ -714,7 +715,7 @@ fn ascii_body<'a>(
                     (Kind::Scalar(_), Role::Indices) => unreachable!("checked by plan"),
                 }
             }
-            if roles.iter().any(|&r| r == Role::Value(0)) {
+            if is_vertex {
                 out.vertex(v).map_err(|m| fail_at(line, m))?;
             }
         }
@@ -847,10 +848,11 @@ fn binary_body<const BE: bool>(
                             )));
                         }
                         pos += ct.size();
-                        let len = (n as usize) * it.size();
-                        let items = data
-                            .get(pos..pos.saturating_add(len))
+                        let items = (n as usize)
+                            .checked_mul(it.size())
+                            .and_then(|len| data.get(pos..pos.checked_add(len)?))
                             .ok_or_else(|| truncated(r, pos))?;
+                        let len = items.len();
                         pos += len;
                         if role == Role::Indices {
                             if it == Ty::I32 || it == Ty::U32 {
@@ -885,13 +887,8 @@ fn binary_body<const BE: bool>(
 // OBJ
 
 fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
+    // Single index, fan-triangulated, points and lines dropped.
+    let opts = tobj::GPU_LOAD_OPTIONS;
     // Materials are not used; don't go looking for the .mtl file.
     let (models, _) = tobj::load_obj_buf(&mut &data[..], &opts, |_| {
         Ok((Vec::new(), Default::default()))
