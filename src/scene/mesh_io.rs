@@ -2,9 +2,10 @@
 //! gzipped) through a hand-written parser, and Wavefront OBJ through `tobj`.
 //!
 //! The PLY parser reads the whole (decompressed) file into memory and walks it
-//! once. It is about ten times faster than `ply-rs-bw` on the Stanford bunny
-//! (see the cross-check test), and it reports errors with the line (ascii) or
-//! the record (binary) where they happen.
+//! once. On the ascii Stanford bunny it takes about 6 ms where `ply-rs-bw`
+//! takes about 160 ms (release; the cross-check test prints both), and it
+//! reports errors with the line (ascii) or the record (binary) where they
+//! happen.
 //!
 //! Polygons are fan-triangulated. Elements and properties the renderer does
 //! not use (normals, colours, confidence, ...) are skipped.
@@ -1394,6 +1395,32 @@ end_header\r
             e.starts_with(":2: vertex coordinate 2: must be finite"),
             "{e}"
         );
+    }
+
+    /// Every truncation and many byte corruptions give a result or an
+    /// error, never a panic.
+    #[test]
+    fn damaged_files_never_panic() {
+        let files = [
+            ASCII.as_bytes().to_vec(),
+            binary_example(false, 0),
+            binary_example(true, 0),
+        ];
+        for data in &files {
+            for n in 0..data.len() {
+                let _ = parse_ply(&data[..n]);
+            }
+            let mut x = 0x9e37_79b9_7f4a_7c15u64;
+            for _ in 0..5000 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let mut d = data.clone();
+                let i = (x % d.len() as u64) as usize;
+                d[i] = (x >> 32) as u8;
+                let _ = parse_ply(&d);
+            }
+        }
     }
 
     #[test]
