@@ -2,9 +2,10 @@
 //! gzipped) through a hand-written parser, and Wavefront OBJ through `tobj`.
 //!
 //! The PLY parser reads the whole (decompressed) file into memory and walks it
-//! once. It is about ten times faster than `ply-rs-bw` on the Stanford bunny
-//! (see the cross-check test), and it reports errors with the line (ascii) or
-//! the record (binary) where they happen.
+//! once. On the ascii Stanford bunny it takes about 6 ms where `ply-rs-bw`
+//! takes about 160 ms (release; the cross-check test prints both), and it
+//! reports errors with the line (ascii) or the record (binary) where they
+//! happen.
 //!
 //! Polygons are fan-triangulated. Elements and properties the renderer does
 //! not use (normals, colours, confidence, ...) are skipped.
@@ -643,6 +644,7 @@ fn ascii_body<'a>(
         line: first_line,
     };
     for (el, roles) in elements.iter().zip(roles) {
+        let is_vertex = roles.contains(&Role::Value(0));
         for r in 0..el.count {
             let mut v = [0f32; 5];
             let mut line = 0;
@@ -714,7 +716,7 @@ fn ascii_body<'a>(
                     (Kind::Scalar(_), Role::Indices) => unreachable!("checked by plan"),
                 }
             }
-            if roles.iter().any(|&r| r == Role::Value(0)) {
+            if is_vertex {
                 out.vertex(v).map_err(|m| fail_at(line, m))?;
             }
         }
@@ -847,10 +849,11 @@ fn binary_body<const BE: bool>(
                             )));
                         }
                         pos += ct.size();
-                        let len = (n as usize) * it.size();
-                        let items = data
-                            .get(pos..pos.saturating_add(len))
+                        let items = (n as usize)
+                            .checked_mul(it.size())
+                            .and_then(|len| data.get(pos..pos.checked_add(len)?))
                             .ok_or_else(|| truncated(r, pos))?;
+                        let len = items.len();
                         pos += len;
                         if role == Role::Indices {
                             if it == Ty::I32 || it == Ty::U32 {
@@ -885,13 +888,8 @@ fn binary_body<const BE: bool>(
 // OBJ
 
 fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
-    let opts = tobj::LoadOptions {
-        triangulate: true,
-        single_index: true,
-        ignore_points: true,
-        ignore_lines: true,
-        ..Default::default()
-    };
+    // Single index, fan-triangulated, points and lines dropped.
+    let opts = tobj::GPU_LOAD_OPTIONS;
     // Materials are not used; don't go looking for the .mtl file.
     let (models, _) = tobj::load_obj_buf(&mut &data[..], &opts, |_| {
         Ok((Vec::new(), Default::default()))
@@ -1399,6 +1397,32 @@ end_header\r
         );
     }
 
+    /// Every truncation and many byte corruptions give a result or an
+    /// error, never a panic.
+    #[test]
+    fn damaged_files_never_panic() {
+        let files = [
+            ASCII.as_bytes().to_vec(),
+            binary_example(false, 0),
+            binary_example(true, 0),
+        ];
+        for data in &files {
+            for n in 0..data.len() {
+                let _ = parse_ply(&data[..n]);
+            }
+            let mut x = 0x9e37_79b9_7f4a_7c15u64;
+            for _ in 0..5000 {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                let mut d = data.clone();
+                let i = (x % d.len() as u64) as usize;
+                d[i] = (x >> 32) as u8;
+                let _ = parse_ply(&d);
+            }
+        }
+    }
+
     #[test]
     fn fast_float_matches_std() {
         let mut x = 0x2545_f491_4f6c_dd1du64;
@@ -1503,14 +1527,19 @@ end_header\r
                 eprintln!("skipping {}: not present", path.display());
                 continue;
             }
-            let t = std::time::Instant::now();
-            let mesh = load_mesh(&path).unwrap_or_else(|e| panic!("{e}"));
+            // Best of three, so the timing is not the page cache's.
+            let mut best = f64::INFINITY;
+            let mut mesh = Mesh::default();
+            for _ in 0..3 {
+                let t = std::time::Instant::now();
+                mesh = load_mesh(&path).unwrap_or_else(|e| panic!("{e}"));
+                best = best.min(t.elapsed().as_secs_f64() * 1e3);
+            }
             eprintln!(
-                "{file}: {} vertices, {} triangles, uv {}, {:.2} ms",
+                "{file}: {} vertices, {} triangles, uv {}, {best:.2} ms",
                 mesh.positions.len(),
                 mesh.indices.len(),
                 mesh.uvs.is_some(),
-                t.elapsed().as_secs_f64() * 1e3
             );
             if verts > 0 {
                 assert_eq!(mesh.positions.len(), verts, "{file}");
