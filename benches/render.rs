@@ -27,7 +27,9 @@ fn renders(c: &mut Criterion) {
         let options = RenderOptions::from_scene(&scene);
         group.throughput(Throughput::Elements(128 * 128 * 16));
         for backend in luz::accel::compiled_backends() {
-            let kind = backend.parse::<BackendKind>().expect("compiled backends parse");
+            let kind = backend
+                .parse::<BackendKind>()
+                .expect("compiled backends parse");
             let accel = Accel::build(&scene, kind, &BuildOptions::default()).expect("builds");
             group.bench_function(format!("{name}/{backend}"), |b| {
                 b.iter(|| render_with(&scene, &accel, &options, &()))

@@ -8,7 +8,6 @@ use luz::image::io::{self as imageio, WriteOptions};
 use luz::image::metrics;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
 use luz::render::{render_with, Progress, RenderOptions};
-use std::fmt::Write as _;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -40,10 +39,10 @@ enum Command {
         b: PathBuf,
         /// Absolute tolerance of a value that counts as agreeing.
         #[arg(long, default_value_t = 0.0)]
-        abs_tol: f32,
+        abs_tol: f64,
         /// Relative tolerance (of the reference) of a value that counts as agreeing.
         #[arg(long, default_value_t = 1e-3)]
-        rel_tol: f32,
+        rel_tol: f64,
         /// Exit with status 1 when the RMSE exceeds this.
         #[arg(long)]
         fail_above: Option<f64>,
@@ -100,8 +99,8 @@ struct ToneMapArgs {
     /// Gamma of the gamma operators.
     #[arg(long, default_value_t = 2.2)]
     gamma: f32,
-    /// Multiply radiance by this before tone mapping.
-    #[arg(long, default_value_t = 1.0)]
+    /// Exposure in stops: radiance is scaled by 2^EXPOSURE before tone mapping.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
 }
 
@@ -114,6 +113,7 @@ impl ToneMapArgs {
                 exposure: self.exposure,
                 ..ToneMapParams::default()
             },
+            ..WriteOptions::default()
         }
     }
 }
@@ -204,15 +204,17 @@ fn progress_bar(rows: u32, samples_per_row: u64, quiet: bool) -> ProgressBar {
         bar.set_draw_target(ProgressDrawTarget::hidden());
         return bar;
     }
-    let style = ProgressStyle::with_template(
-        "{elapsed_precise} [{bar:40}] {percent:>3}% ETA {eta} {rate}",
-    )
-    .expect("the template is valid")
-    .progress_chars("=> ")
-    .with_key("rate", move |state: &ProgressState, w: &mut dyn std::fmt::Write| {
-        let rate = state.per_sec() * samples_per_row as f64 / 1e6;
-        let _ = write!(w, "{rate:.2} Msamples/s");
-    });
+    let style =
+        ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent:>3}% ETA {eta} {rate}")
+            .expect("the template is valid")
+            .progress_chars("=> ")
+            .with_key(
+                "rate",
+                move |state: &ProgressState, w: &mut dyn std::fmt::Write| {
+                    let rate = state.per_sec() * samples_per_row as f64 / 1e6;
+                    let _ = write!(w, "{rate:.2} Msamples/s");
+                },
+            );
     bar.set_style(style);
     bar
 }
@@ -257,7 +259,8 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let (film, stats) = render_with(&scene, &accel, &options, &Bar(bar.clone()));
     bar.finish_and_clear();
 
-    imageio::write(&output, &film.image(), &args.tonemap.write_options()).map_err(Failure::other)?;
+    imageio::write(&output, &film.image(), &args.tonemap.write_options())
+        .map_err(Failure::other)?;
     if film.non_finite > 0 {
         eprintln!(
             "luz: warning: {} samples were not finite and were left out",
@@ -290,19 +293,22 @@ fn tonemap_file(input: &Path, output: &Path, args: &ToneMapArgs) -> Result<(), F
 fn compare(
     a: &Path,
     b: &Path,
-    abs_tol: f32,
-    rel_tol: f32,
+    abs_tol: f64,
+    rel_tol: f64,
     fail_above: Option<f64>,
 ) -> Result<(), Failure> {
     let image_a = imageio::read(a).map_err(Failure::input)?;
     let image_b = imageio::read(b).map_err(Failure::input)?;
-    let comparison = metrics::compare(&image_a, &image_b, abs_tol, rel_tol).map_err(Failure::input)?;
+    let comparison =
+        metrics::compare(&image_a, &image_b, abs_tol, rel_tol).map_err(Failure::input)?;
     println!("{comparison}");
     match fail_above {
-        Some(limit) if !(comparison.rmse <= limit) => Err(Failure::other(format!(
-            "RMSE {:.6e} is above --fail-above {limit:e}",
-            comparison.rmse
-        ))),
+        Some(limit) if comparison.rmse.is_nan() || comparison.rmse > limit => {
+            Err(Failure::other(format!(
+                "RMSE {:.6e} is above --fail-above {limit:e}",
+                comparison.rmse
+            )))
+        }
         _ => Ok(()),
     }
 }

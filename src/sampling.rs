@@ -161,7 +161,7 @@ impl Discrete {
             acc += w.max(0.0) as f64;
             sums.push(acc);
         }
-        if !(acc > 0.0) || !acc.is_finite() {
+        if !(acc.is_finite() && acc > 0.0) {
             return None;
         }
         let cdf = sums.iter().map(|&s| (s / acc) as f32).collect();

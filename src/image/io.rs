@@ -538,15 +538,32 @@ fn sample_field(x: u64, y: u64, c: u64, grey: bool) -> String {
 
 // ------------------------------------------------------------------ write
 
-/// Writes `img` to `path` atomically, in the format its extension names
-/// (`.exr`, `.hdr`, `.ppm` as HDR PPM, `.png` tone-mapped with
-/// `options.tonemap`). See the module docs for the value policies.
-pub fn write(path: &Path, img: &Image, options: &WriteOptions) -> Result<(), ImageError> {
+/// Checks that `path` names a format `write` can produce and a directory
+/// that exists, so a caller can refuse it before spending time on a render.
+pub fn check_output_path(path: &Path) -> Result<(), ImageError> {
+    output_kind(path)?;
+    let dir = match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        return Err(ImageError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::new(
+                std::io::ErrorKind::NotFound,
+                format!("the directory {} does not exist", dir.display()),
+            ),
+        });
+    }
+    Ok(())
+}
+
+fn output_kind(path: &Path) -> Result<Kind, ImageError> {
     let ext = path
         .extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
-    let kind = match ext.as_str() {
+    Ok(match ext.as_str() {
         "exr" => Kind::Exr,
         "hdr" => Kind::Hdr,
         "ppm" => Kind::Ppm,
@@ -562,7 +579,14 @@ pub fn write(path: &Path, img: &Image, options: &WriteOptions) -> Result<(), Ima
                 supported: WRITE_EXTENSIONS,
             })
         }
-    };
+    })
+}
+
+/// Writes `img` to `path` atomically, in the format its extension names
+/// (`.exr`, `.hdr`, `.ppm` as HDR PPM, `.png` tone-mapped with
+/// `options.tonemap`). See the module docs for the value policies.
+pub fn write(path: &Path, img: &Image, options: &WriteOptions) -> Result<(), ImageError> {
+    let kind = output_kind(path)?;
     if img.width == 0 || img.height == 0 {
         return Err(ImageError::Format {
             path: path.to_path_buf(),

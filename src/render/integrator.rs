@@ -134,7 +134,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             };
             let (wd, ws, wt) = (kd.max_element(), ks.max_element(), kt.max_element());
             let sum = wd + ws + wt;
-            if !(sum > 0.0) {
+            if sum.is_nan() || sum <= 0.0 {
                 break;
             }
             // Probabilities: normalised when they exceed one or when Russian
@@ -186,7 +186,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                     refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
                 }
             };
-            if !(beta.max_element() > 0.0) {
+            if beta.is_nan() || beta.max_element() <= 0.0 {
                 break;
             }
             ray = spawn_ray(sp.p, sp.p_err, sp.n, wi.normalize());

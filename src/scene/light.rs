@@ -56,7 +56,7 @@ impl LightSampler {
                     .sum(),
                 Geometry::Plane(_) => continue,
             };
-            if !(area > 0.0) {
+            if area.is_nan() || area <= 0.0 {
                 continue;
             }
             sampler.slot[id] = Some(sampler.shapes.len() as u32);

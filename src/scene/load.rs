@@ -47,7 +47,11 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
     let ctx = Ctx { text, path };
     let desc: SceneDesc = toml::from_str(text).map_err(|e| {
         let span = e.span().unwrap_or(0..0);
-        let mut message = e.message().trim_end().to_string();
+        // One line per error: toml puts its expectations on further lines.
+        let mut message = e.message().trim().lines().collect::<Vec<_>>().join(": ");
+        if let Some(key) = key_before(text, span.start) {
+            message = format!("field `{key}`: {message}");
+        }
         if let Some(hint) = did_you_mean(&message) {
             message.push_str(&format!(" (did you mean `{hint}`?)"));
         }
@@ -571,8 +575,7 @@ impl Ctx<'_> {
             let field = ["kd", "ks", "kt"]
                 .into_iter()
                 .zip([md.kd, md.ks, md.kt])
-                .filter(|(_, v)| v.is_some())
-                .last()
+                .rfind(|(_, v)| v.is_some())
                 .map_or("kd", |(f, _)| f);
             return Err(self.field_error(
                 &span,
@@ -773,6 +776,19 @@ impl Ctx<'_> {
 }
 
 /// The unknown key named by a serde "unknown field" message.
+/// The key of a `key = value` line whose value starts at `offset`: serde's
+/// type errors point at the value and do not name the field.
+fn key_before(text: &str, offset: usize) -> Option<&str> {
+    let line_start = text.get(..offset)?.rfind('\n').map_or(0, |i| i + 1);
+    let (key, rest) = text[line_start..offset].split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    let is_key = !key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-' || c == '.');
+    (is_key && rest.trim().is_empty()).then_some(key)
+}
+
 fn unknown_field(message: &str) -> Option<&str> {
     let rest = message.strip_prefix("unknown field `")?;
     rest.split('`').next()
@@ -814,9 +830,7 @@ mod tests {
     const MINIMAL: &str = "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n";
 
     fn err(text: &str) -> SceneError {
-        load_str(text, Path::new("test.toml"))
-            .err()
-            .expect("must fail")
+        load_str(text, Path::new("test.toml")).expect_err("must fail")
     }
 
     #[test]

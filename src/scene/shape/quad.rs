@@ -25,7 +25,7 @@ impl Quad {
     pub fn new(p0: Vec3, e1: Vec3, e2: Vec3) -> Option<Self> {
         let c = e1.cross(e2);
         let area = c.length();
-        if !(area > 0.0) || !area.is_finite() {
+        if !(area.is_finite() && area > 0.0) {
             return None;
         }
         let normal = c / area;
