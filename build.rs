@@ -92,21 +92,21 @@ fn read_config(include: &Path) -> Result<(String, u32, bool), String> {
 }
 
 fn locate() -> Result<Found, String> {
+    let multiarch = match env::var("CARGO_CFG_TARGET_ARCH").as_deref() {
+        Ok("x86_64") => "x86_64-linux-gnu",
+        Ok("aarch64") => "aarch64-linux-gnu",
+        _ => "",
+    };
     let (includes, lib_dirs): (Vec<PathBuf>, Vec<PathBuf>) = match env::var_os("EMBREE_DIR") {
         Some(dir) => {
             let dir = PathBuf::from(dir);
-            (
-                vec![dir.join("include")],
-                vec![dir.join("lib"), dir.join("lib64")],
-            )
+            let mut libs = vec![dir.join("lib"), dir.join("lib64")];
+            if !multiarch.is_empty() {
+                libs.push(dir.join("lib").join(multiarch));
+            }
+            (vec![dir.join("include")], libs)
         }
         None => {
-            let arch = env::var("CARGO_CFG_TARGET_ARCH").unwrap_or_default();
-            let multiarch = match arch.as_str() {
-                "x86_64" => "x86_64-linux-gnu",
-                "aarch64" => "aarch64-linux-gnu",
-                _ => "",
-            };
             let mut libs = Vec::new();
             for prefix in ["/usr", "/usr/local"] {
                 if !multiarch.is_empty() {
@@ -192,6 +192,18 @@ fn main() {
         Ok(found) => {
             println!("cargo:rustc-link-search=native={}", found.lib_dir.display());
             println!("cargo:rustc-link-lib=dylib=embree3");
+            // An Embree outside the loader's default paths (EMBREE_DIR, or a
+            // release tarball) is found at run time through an rpath.
+            let system = ["/usr/lib", "/usr/lib64", "/lib", "/lib64"];
+            let in_system = system.iter().any(|d| found.lib_dir == Path::new(d))
+                || (found.lib_dir.starts_with("/usr/lib/")
+                    && found.lib_dir.to_string_lossy().ends_with("-linux-gnu"));
+            if !in_system && env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("windows") {
+                println!(
+                    "cargo:rustc-link-arg=-Wl,-rpath,{}",
+                    found.lib_dir.display()
+                );
+            }
             println!("cargo:rustc-cfg=luz_embree");
             if found.min_width {
                 println!("cargo:rustc-cfg=luz_embree_min_width");
