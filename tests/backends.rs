@@ -150,6 +150,8 @@ fn native_backend_matches_brute_force_on_1e5_rays_at_three_scales() {
 
 fn embree_compiled() -> bool {
     if luz::accel::compiled_backends().contains(&"embree") {
+        let version = luz::accel::embree_version().expect("Embree is compiled in");
+        assert!(version.starts_with("3."), "{version}");
         return true;
     }
     assert!(

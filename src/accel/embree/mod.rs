@@ -72,7 +72,17 @@ fn embree_error(e: String) -> AccelError {
 
 impl EmbreeBackend {
     pub fn new(scene: Arc<Scene>, options: &BuildOptions) -> Result<Self, AccelError> {
-        let device = sys::Device::new(None).map_err(embree_error)?;
+        Self::with_device_config(scene, options, None)
+    }
+
+    /// `new` with an Embree device configuration string (`rtcNewDevice`'s
+    /// argument, e.g. "threads=4,verbose=1"); `None` is Embree's default.
+    pub fn with_device_config(
+        scene: Arc<Scene>,
+        options: &BuildOptions,
+        config: Option<&str>,
+    ) -> Result<Self, AccelError> {
+        let device = sys::Device::new(config).map_err(embree_error)?;
         let quality = sys::Quality::from(options.embree_quality);
         let rtc = device
             .new_scene(quality, options.embree_robust)
@@ -253,6 +263,17 @@ mod tests {
         let nan = Ray::new(Vec3::splat(f32::NAN), -Vec3::Z);
         assert!(b.intersect(&nan).is_none() && !b.occluded(&nan));
         assert_eq!(b.version().split('.').next(), Some("3"));
+    }
+
+    #[test]
+    fn embree_failures_become_accel_errors() {
+        let scene = scene_of(vec![]);
+        match EmbreeBackend::with_device_config(scene, &BuildOptions::default(), Some("threads=x"))
+        {
+            Err(AccelError::Embree(m)) => assert!(m.contains("rtcNewDevice"), "{m}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("built"),
+        }
     }
 
     #[test]
