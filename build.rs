@@ -1,1 +1,241 @@
-fn main() {}
+//! Finds Embree 3 and links it; without it, luz builds the native backend
+//! only (`--backend embree` then reports `AccelError::EmbreeMissing`).
+//!
+//! Where it looks, in order:
+//! 1. `EMBREE_DIR`: `$EMBREE_DIR/include/embree3/rtcore.h` and
+//!    `libembree3` in `$EMBREE_DIR/lib` (or `lib64`);
+//! 2. the system paths Debian's `libembree-dev` installs to
+//!    (`/usr/include/embree3`, `/usr/lib/<multiarch>/libembree3.so`), and
+//!    `/usr/local`.
+//!
+//! Environment:
+//! - `LUZ_NO_EMBREE=1`: build without Embree even when it is installed;
+//! - `LUZ_REQUIRE_EMBREE=1`: fail the build when Embree is not found.
+//!
+//! When found, it emits `cfg(luz_embree)`, and writes
+//! `$OUT_DIR/embree3_config.rs` with the constants of the installed
+//! `rtcore_config.h` that change the layout of Embree's structs
+//! (`RTC_MAX_INSTANCE_LEVEL_COUNT`), plus `cfg(luz_embree_min_width)` when
+//! `RTC_MIN_WIDTH` is on and `cfg(luz_embree_inst_stack)` when instances
+//! nest (both add fields to `RTCIntersectContext`). No C compiler, no bindgen, no libclang: the FFI
+//! declarations are hand-written in `src/accel/embree/sys3.rs`.
+
+use std::env;
+use std::fs;
+use std::path::{Path, PathBuf};
+
+struct Found {
+    include: PathBuf,
+    lib_dir: PathBuf,
+    version: String,
+    max_instance_level_count: u32,
+    min_width: bool,
+}
+
+fn flag(name: &str) -> bool {
+    env::var(name)
+        .map(|v| !v.is_empty() && v != "0" && !v.eq_ignore_ascii_case("false"))
+        .unwrap_or(false)
+}
+
+/// Library file names that let `-l embree3` link on this target.
+fn lib_names() -> &'static [&'static str] {
+    match env::var("CARGO_CFG_TARGET_OS").as_deref() {
+        Ok("windows") => &["embree3.lib"],
+        Ok("macos") => &["libembree3.dylib"],
+        _ => &["libembree3.so"],
+    }
+}
+
+fn find_lib(dirs: &[PathBuf]) -> Option<PathBuf> {
+    dirs.iter()
+        .find(|d| lib_names().iter().any(|n| d.join(n).is_file()))
+        .cloned()
+}
+
+/// `#define NAME value` from a header, as text.
+fn define<'a>(header: &'a str, name: &str) -> Option<&'a str> {
+    header.lines().find_map(|l| {
+        let mut it = l.split_whitespace();
+        (it.next() == Some("#define") && it.next() == Some(name))
+            .then(|| it.next())
+            .flatten()
+    })
+}
+
+fn read_config(include: &Path) -> Result<(String, u32, bool), String> {
+    let path = include.join("embree3/rtcore_config.h");
+    println!("cargo:rerun-if-changed={}", path.display());
+    let text =
+        fs::read_to_string(&path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    let major = define(&text, "RTC_VERSION_MAJOR").unwrap_or("?");
+    let version = define(&text, "RTC_VERSION_STRING")
+        .unwrap_or("\"?\"")
+        .trim_matches('"')
+        .to_string();
+    if major != "3" {
+        return Err(format!(
+            "{} is Embree {version}; luz's FFI layer supports Embree 3",
+            path.display()
+        ));
+    }
+    let levels = define(&text, "RTC_MAX_INSTANCE_LEVEL_COUNT")
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1);
+    // `#define RTC_MIN_WIDTH EMBREE_MIN_WIDTH`, itself 0 or 1.
+    let min_width = match define(&text, "RTC_MIN_WIDTH") {
+        Some("EMBREE_MIN_WIDTH") => define(&text, "EMBREE_MIN_WIDTH") == Some("1"),
+        Some(v) => v == "1",
+        None => false,
+    };
+    Ok((version, levels, min_width))
+}
+
+fn locate() -> Result<Found, String> {
+    let multiarch = match env::var("CARGO_CFG_TARGET_ARCH").as_deref() {
+        Ok("x86_64") => "x86_64-linux-gnu",
+        Ok("aarch64") => "aarch64-linux-gnu",
+        _ => "",
+    };
+    let (includes, lib_dirs): (Vec<PathBuf>, Vec<PathBuf>) = match env::var_os("EMBREE_DIR") {
+        Some(dir) => {
+            let dir = PathBuf::from(dir);
+            let mut libs = vec![dir.join("lib"), dir.join("lib64")];
+            if !multiarch.is_empty() {
+                libs.push(dir.join("lib").join(multiarch));
+            }
+            (vec![dir.join("include")], libs)
+        }
+        None => {
+            let mut libs = Vec::new();
+            for prefix in ["/usr", "/usr/local"] {
+                if !multiarch.is_empty() {
+                    libs.push(Path::new(prefix).join("lib").join(multiarch));
+                }
+                libs.push(Path::new(prefix).join("lib64"));
+                libs.push(Path::new(prefix).join("lib"));
+            }
+            (
+                vec!["/usr/include".into(), "/usr/local/include".into()],
+                libs,
+            )
+        }
+    };
+    let where_ = if env::var_os("EMBREE_DIR").is_some() {
+        "under EMBREE_DIR"
+    } else {
+        "in the system paths"
+    };
+    let include = includes
+        .iter()
+        .find(|i| i.join("embree3/rtcore.h").is_file())
+        .cloned()
+        .ok_or_else(|| {
+            format!(
+                "no embree3/rtcore.h {where_} (looked in {})",
+                join(&includes)
+            )
+        })?;
+    let lib_dir = find_lib(&lib_dirs).ok_or_else(|| {
+        format!(
+            "found {} but no {} {where_} (looked in {})",
+            include.join("embree3/rtcore.h").display(),
+            lib_names().join(" or "),
+            join(&lib_dirs)
+        )
+    })?;
+    let (version, max_instance_level_count, min_width) = read_config(&include)?;
+    Ok(Found {
+        include,
+        lib_dir,
+        version,
+        max_instance_level_count,
+        min_width,
+    })
+}
+
+fn join(paths: &[PathBuf]) -> String {
+    paths
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Stops the build with a message cargo shows as it is.
+fn fail(message: &str) -> ! {
+    eprintln!("error: {message}");
+    std::process::exit(1);
+}
+
+fn main() {
+    println!("cargo:rerun-if-changed=build.rs");
+    for var in ["EMBREE_DIR", "LUZ_NO_EMBREE", "LUZ_REQUIRE_EMBREE"] {
+        println!("cargo:rerun-if-env-changed={var}");
+    }
+    println!("cargo:rustc-check-cfg=cfg(luz_embree)");
+    println!("cargo:rustc-check-cfg=cfg(luz_embree_min_width)");
+    println!("cargo:rustc-check-cfg=cfg(luz_embree_inst_stack)");
+
+    let require = flag("LUZ_REQUIRE_EMBREE");
+    if flag("LUZ_NO_EMBREE") {
+        if require {
+            fail("LUZ_NO_EMBREE and LUZ_REQUIRE_EMBREE are both set; unset one of them");
+        }
+        println!(
+            "cargo:warning=LUZ_NO_EMBREE is set: building without Embree (native backend only)"
+        );
+        return;
+    }
+
+    match locate() {
+        Ok(found) => {
+            println!("cargo:rustc-link-search=native={}", found.lib_dir.display());
+            println!("cargo:rustc-link-lib=dylib=embree3");
+            // An Embree outside the loader's default paths (EMBREE_DIR, or a
+            // release tarball) is found at run time through an rpath.
+            let system = ["/usr/lib", "/usr/lib64", "/lib", "/lib64"];
+            let in_system = system.iter().any(|d| found.lib_dir == Path::new(d))
+                || (found.lib_dir.starts_with("/usr/lib/")
+                    && found.lib_dir.to_string_lossy().ends_with("-linux-gnu"));
+            if !in_system && env::var("CARGO_CFG_TARGET_OS").as_deref() != Ok("windows") {
+                println!(
+                    "cargo:rustc-link-arg=-Wl,-rpath,{}",
+                    found.lib_dir.display()
+                );
+            }
+            println!("cargo:rustc-cfg=luz_embree");
+            if found.min_width {
+                println!("cargo:rustc-cfg=luz_embree_min_width");
+            }
+            if found.max_instance_level_count > 1 {
+                println!("cargo:rustc-cfg=luz_embree_inst_stack");
+            }
+            let out = PathBuf::from(env::var_os("OUT_DIR").expect("cargo sets OUT_DIR"));
+            let config = format!(
+                "// Generated by build.rs from {}/embree3/rtcore_config.h (Embree {}).\n\
+                 pub const HEADER_VERSION: &str = \"{}\";\n\
+                 pub const MAX_INSTANCE_LEVEL_COUNT: usize = {};\n",
+                found.include.display(),
+                found.version,
+                found.version,
+                found.max_instance_level_count
+            );
+            fs::write(out.join("embree3_config.rs"), config).expect("write embree3_config.rs");
+        }
+        Err(why) => {
+            if require {
+                fail(&format!(
+                    "LUZ_REQUIRE_EMBREE is set but Embree 3 was not found: {why}.\n\
+                     Install it (Debian/Ubuntu: `apt-get install libembree-dev`), or point \
+                     EMBREE_DIR at an Embree 3 installation (with include/embree3/rtcore.h and \
+                     lib/libembree3.so), or unset LUZ_REQUIRE_EMBREE to build the native backend only."
+                ));
+            }
+            println!(
+                "cargo:warning=Embree 3 not found ({why}): building the native backend only. \
+                 Install it with `apt-get install libembree-dev` (or set EMBREE_DIR) to enable --backend embree."
+            );
+        }
+    }
+}

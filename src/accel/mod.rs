@@ -26,6 +26,8 @@ pub trait Backend: Send + Sync {
 }
 
 pub mod bvh;
+#[cfg(luz_embree)]
+pub mod embree;
 pub mod native;
 
 use crate::scene::Scene;
@@ -93,6 +95,8 @@ pub enum AccelError {
 /// and no virtual call sits in the hot path.
 pub enum Accel {
     Native(NativeBackend),
+    #[cfg(luz_embree)]
+    Embree(embree::EmbreeBackend),
 }
 
 impl Accel {
@@ -101,11 +105,18 @@ impl Accel {
         kind: BackendKind,
         options: &BuildOptions,
     ) -> Result<Self, AccelError> {
-        let _ = options;
         match kind {
-            BackendKind::Rust | BackendKind::Auto => {
+            BackendKind::Rust => Ok(Accel::Native(NativeBackend::new(scene.clone()))),
+            #[cfg(luz_embree)]
+            BackendKind::Embree | BackendKind::Auto => Ok(Accel::Embree(
+                embree::EmbreeBackend::new(scene.clone(), options)?,
+            )),
+            #[cfg(not(luz_embree))]
+            BackendKind::Auto => {
+                let _ = options;
                 Ok(Accel::Native(NativeBackend::new(scene.clone())))
             }
+            #[cfg(not(luz_embree))]
             BackendKind::Embree => Err(AccelError::EmbreeMissing),
         }
     }
@@ -116,28 +127,44 @@ impl Backend for Accel {
     fn name(&self) -> &'static str {
         match self {
             Accel::Native(b) => b.name(),
+            #[cfg(luz_embree)]
+            Accel::Embree(b) => b.name(),
         }
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         match self {
             Accel::Native(b) => b.intersect(ray),
+            #[cfg(luz_embree)]
+            Accel::Embree(b) => b.intersect(ray),
         }
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
         match self {
             Accel::Native(b) => b.occluded(ray),
+            #[cfg(luz_embree)]
+            Accel::Embree(b) => b.occluded(ray),
         }
     }
 }
 
 /// Names of the backends compiled into this build.
 pub fn compiled_backends() -> Vec<&'static str> {
-    vec!["rust"]
+    let mut v = vec!["rust"];
+    if cfg!(luz_embree) {
+        v.push("embree");
+    }
+    v
 }
 
 /// Embree's version string, when compiled in.
 pub fn embree_version() -> Option<String> {
+    #[cfg(luz_embree)]
+    {
+        static VERSION: std::sync::OnceLock<Option<String>> = std::sync::OnceLock::new();
+        VERSION.get_or_init(embree::library_version).clone()
+    }
+    #[cfg(not(luz_embree))]
     None
 }

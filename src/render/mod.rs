@@ -128,5 +128,7 @@ pub fn render_with(
 ) -> (Film, RenderStats) {
     match accel {
         crate::accel::Accel::Native(b) => render(scene, b, options, progress),
+        #[cfg(luz_embree)]
+        crate::accel::Accel::Embree(b) => render(scene, b, options, progress),
     }
 }

@@ -1,0 +1,292 @@
+//! The Embree backend: one Embree device and one scene per backend.
+//!
+//! - Meshes are Embree's native triangle geometry (its own watertight
+//!   intersector, so `t`, `u`, `v` differ from the native Möller–Trumbore in
+//!   the last bits; agreement between backends is statistical).
+//! - Spheres, quads and cuboids are Embree user geometry whose callbacks call
+//!   the very routines the native backend uses (`Geometry::intersect`).
+//! - Infinite planes are tested outside Embree, exactly as the native backend
+//!   does. Embree needs finite bounds for every primitive; "huge" finite
+//!   bounds (say ±1e30) would put a box around the whole scene into its BVH
+//!   that every ray enters, would lose any ray or plane beyond it, and with
+//!   the compressed node formats risks overflow in the quantised bounds. A
+//!   scene has a handful of planes at most, so the loop costs nothing, and
+//!   planes then give bit-identical answers in both backends.
+//!
+//! Every geometry is attached with `rtcAttachGeometryByID` under the scene's
+//! own shape index, so Embree's `geomID` is `Hit::geom` without remapping.
+//!
+//! All Embree-3 specifics (layouts, constants, callback conventions) live in
+//! `sys3`; this file uses only its small safe API.
+
+mod sys3;
+
+use self::sys3 as sys;
+use super::{AccelError, Backend, BuildOptions, EmbreeQuality, Hit};
+use crate::math::{Aabb, Ray, Vec3};
+use crate::scene::shape::PrimHit;
+use crate::scene::{Geometry, Scene};
+use std::sync::Arc;
+
+pub struct EmbreeBackend {
+    // Field order is drop order: the Embree scene (which holds pointers into
+    // `scene`'s shapes) goes first, the shapes last.
+    rtc: sys::Scene,
+    device: sys::Device,
+    planes: Vec<u32>,
+    scene: Arc<Scene>,
+}
+
+impl From<EmbreeQuality> for sys::Quality {
+    fn from(q: EmbreeQuality) -> Self {
+        match q {
+            EmbreeQuality::Low => sys::Quality::Low,
+            EmbreeQuality::Medium => sys::Quality::Medium,
+            EmbreeQuality::High => sys::Quality::High,
+        }
+    }
+}
+
+/// Spheres, quads and cuboids as Embree user primitives (one per shape).
+impl sys::UserPrimitives for Geometry {
+    fn bounds(&self, prim: u32) -> Aabb {
+        self.primitive_bounds(prim)
+            .expect("only bounded shapes become user geometry")
+    }
+
+    #[inline]
+    fn intersect(&self, prim: u32, ray: &Ray) -> Option<(PrimHit, Vec3)> {
+        let h = Geometry::intersect(self, prim, ray)?;
+        Some((h, self.surface(prim, ray, &h).n))
+    }
+
+    #[inline]
+    fn occluded(&self, prim: u32, ray: &Ray) -> bool {
+        Geometry::intersect(self, prim, ray).is_some()
+    }
+}
+
+fn embree_error(e: String) -> AccelError {
+    AccelError::Embree(e)
+}
+
+impl EmbreeBackend {
+    pub fn new(scene: Arc<Scene>, options: &BuildOptions) -> Result<Self, AccelError> {
+        Self::with_device_config(scene, options, None)
+    }
+
+    /// `new` with an Embree device configuration string (`rtcNewDevice`'s
+    /// argument, e.g. "threads=4,verbose=1"); `None` is Embree's default.
+    pub fn with_device_config(
+        scene: Arc<Scene>,
+        options: &BuildOptions,
+        config: Option<&str>,
+    ) -> Result<Self, AccelError> {
+        let device = sys::Device::new(config).map_err(embree_error)?;
+        let quality = sys::Quality::from(options.embree_quality);
+        let rtc = device
+            .new_scene(quality, options.embree_robust)
+            .map_err(embree_error)?;
+        let mut planes = Vec::new();
+        for (id, shape) in scene.shapes.iter().enumerate() {
+            let id = u32::try_from(id)
+                .ok()
+                .filter(|&i| i != u32::MAX)
+                .ok_or_else(|| AccelError::Embree("more shapes than Embree has ids".into()))?;
+            let geom = match &shape.geometry {
+                Geometry::Plane(_) => {
+                    planes.push(id);
+                    continue;
+                }
+                Geometry::Mesh(m) => {
+                    if m.indices.is_empty() {
+                        continue;
+                    }
+                    let n = m.positions.len();
+                    if let Some((t, &i)) = m
+                        .indices
+                        .iter()
+                        .enumerate()
+                        .find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= n).map(|i| (t, i)))
+                    {
+                        return Err(AccelError::Embree(format!(
+                            "shape {id}: triangle {t} refers to vertex {i}, but the mesh has {n} vertices"
+                        )));
+                    }
+                    device.new_triangles(&m.positions, &m.indices, quality)
+                }
+                g => {
+                    if !matches!(g.primitive_bounds(0), Some(b) if b.is_finite()) {
+                        return Err(AccelError::Embree(format!(
+                            "shape {id} ({}) has no finite bounds",
+                            g.name()
+                        )));
+                    }
+                    // SAFETY: `g` lives in `scene`, an `Arc` this backend
+                    // holds and drops after the Embree scene.
+                    unsafe { device.new_user(g as *const Geometry, 1) }
+                }
+            }
+            .map_err(embree_error)?;
+            device.attach(&rtc, &geom, id).map_err(embree_error)?;
+        }
+        device.commit(&rtc).map_err(embree_error)?;
+        Ok(Self {
+            rtc,
+            device,
+            planes,
+            scene,
+        })
+    }
+
+    /// Version of the Embree library this backend runs on.
+    pub fn version(&self) -> String {
+        self.device.version()
+    }
+}
+
+/// Version of the linked Embree library, e.g. "3.13.5".
+pub fn library_version() -> Option<String> {
+    sys::Device::new(None).ok().map(|d| d.version())
+}
+
+/// Rays Embree must not see: it leaves the behaviour on NaN/infinite
+/// origins or directions undefined, while luz's routines miss them.
+#[inline]
+fn traceable(ray: &Ray) -> bool {
+    ray.origin.is_finite() && ray.dir.is_finite() && !ray.t_min.is_nan() && !ray.t_max.is_nan()
+}
+
+impl Backend for EmbreeBackend {
+    fn name(&self) -> &'static str {
+        "embree"
+    }
+
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !traceable(ray) {
+            return None;
+        }
+        let mut best = self.rtc.intersect(ray).map(|h| Hit {
+            t: h.t,
+            geom: h.geom,
+            prim: h.prim,
+            u: h.u,
+            v: h.v,
+        });
+        for &geom in &self.planes {
+            let mut r = *ray;
+            if let Some(b) = &best {
+                r.t_max = b.t;
+            }
+            if let Some(h) = self.scene.shapes[geom as usize].geometry.intersect(0, &r) {
+                best = Some(Hit {
+                    t: h.t,
+                    geom,
+                    prim: 0,
+                    u: h.u,
+                    v: h.v,
+                });
+            }
+        }
+        best
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        if !traceable(ray) {
+            return false;
+        }
+        self.planes.iter().any(|&g| {
+            self.scene.shapes[g as usize]
+                .geometry
+                .intersect(0, ray)
+                .is_some()
+        }) || self.rtc.occluded(ray)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::shape::{Mesh, Sphere};
+    use crate::scene::{Camera, Material, RenderSettings, Shape};
+
+    fn scene_of(shapes: Vec<Geometry>) -> Arc<Scene> {
+        let camera = Camera {
+            eye: Vec3::Z,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 1,
+            height: 1,
+        };
+        Arc::new(Scene::new(
+            camera,
+            vec![Material::default()],
+            vec![],
+            shapes.into_iter().map(|g| Shape::new(g, 0)).collect(),
+            vec![],
+            None,
+            RenderSettings::default(),
+        ))
+    }
+
+    #[test]
+    fn hits_report_the_scenes_own_ids() {
+        let scene = scene_of(vec![
+            Geometry::Sphere(Sphere {
+                center: Vec3::new(0.0, 0.0, -5.0),
+                radius: 1.0,
+            }),
+            Geometry::Mesh(Mesh {
+                positions: vec![
+                    Vec3::new(-1.0, -1.0, -2.0),
+                    Vec3::new(1.0, -1.0, -2.0),
+                    Vec3::new(0.0, 1.0, -2.0),
+                ],
+                indices: vec![[0, 1, 2]],
+                uvs: None,
+            }),
+        ]);
+        let b = EmbreeBackend::new(scene, &BuildOptions::default()).unwrap();
+        let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), -Vec3::Z);
+        let h = b.intersect(&down(0.0)).unwrap();
+        assert_eq!((h.geom, h.prim), (1, 0));
+        assert!((h.t - 2.0).abs() < 1e-6);
+        // Beyond the triangle's tip at x = 0.9, only the sphere.
+        let h = b.intersect(&down(0.9)).unwrap();
+        assert_eq!((h.geom, h.prim), (0, 0));
+        assert!(b.occluded(&down(0.9)));
+        assert!(!b.occluded(&Ray::segment(Vec3::new(0.9, 0.0, 0.0), -Vec3::Z, 3.0)));
+        assert!(b.intersect(&down(3.0)).is_none());
+        let nan = Ray::new(Vec3::splat(f32::NAN), -Vec3::Z);
+        assert!(b.intersect(&nan).is_none() && !b.occluded(&nan));
+        assert_eq!(b.version().split('.').next(), Some("3"));
+    }
+
+    #[test]
+    fn embree_failures_become_accel_errors() {
+        let scene = scene_of(vec![]);
+        match EmbreeBackend::with_device_config(scene, &BuildOptions::default(), Some("threads=x"))
+        {
+            Err(AccelError::Embree(m)) => assert!(m.contains("rtcNewDevice"), "{m}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("built"),
+        }
+    }
+
+    #[test]
+    fn out_of_range_indices_are_a_build_error_not_a_crash() {
+        let scene = scene_of(vec![Geometry::Mesh(Mesh {
+            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            indices: vec![[0, 1, 7]],
+            uvs: None,
+        })]);
+        match EmbreeBackend::new(scene, &BuildOptions::default()) {
+            Err(AccelError::Embree(m)) => assert!(m.contains("vertex 7"), "{m}"),
+            Err(e) => panic!("{e}"),
+            Ok(_) => panic!("built"),
+        }
+    }
+}
