@@ -39,8 +39,10 @@ pub enum BuildQuality {
 struct Preset {
     bins: usize,
     max_leaf: usize,
-    /// Cost of a node visit relative to one primitive test.
+    /// Cost of a 4-wide node visit ...
     traversal_cost: f32,
+    /// ... and of testing one pack of `align` primitives.
+    pack_cost: f32,
 }
 
 impl BuildQuality {
@@ -50,20 +52,26 @@ impl BuildQuality {
                 bins: 8,
                 max_leaf: 8,
                 traversal_cost: 1.0,
+                pack_cost: 1.0,
             },
             BuildQuality::Balanced => Preset {
                 bins: 16,
                 max_leaf: 6,
                 traversal_cost: 1.0,
+                pack_cost: 1.0,
             },
             BuildQuality::High => Preset {
                 bins: 48,
                 max_leaf: 4,
                 traversal_cost: 1.0,
+                pack_cost: 1.0,
             },
         }
     }
 }
+
+/// `primitive_indices` entry of a padding slot.
+pub const PADDING: u32 = u32::MAX;
 
 /// Deepest level of the binary tree (and hence of the 4-wide one).
 const MAX_DEPTH: usize = 64;
@@ -120,14 +128,37 @@ pub struct Bvh {
 // 4-wide float vector: SSE on x86_64 (always available there), plain arrays
 // elsewhere. `min`/`max` return the *second* operand when either is NaN,
 // exactly like `minps`/`maxps`; traversal relies on that to drop NaN.
+// Comparisons give lane masks (`M4`); `bits` packs them into an integer.
+// Every operation is one IEEE single-precision operation per lane, so code
+// written with `F4` gives bit for bit what the same scalar code gives.
 
 #[cfg(target_arch = "x86_64")]
 #[allow(unused_unsafe)]
-mod f4 {
+pub(crate) mod f4 {
     use std::arch::x86_64::*;
 
     #[derive(Clone, Copy)]
     pub struct F4(__m128);
+
+    #[derive(Clone, Copy)]
+    pub struct M4(__m128);
+
+    macro_rules! binop {
+        ($name:ident, $intr:ident) => {
+            #[inline(always)]
+            pub fn $name(self, o: F4) -> F4 {
+                unsafe { F4($intr(self.0, o.0)) }
+            }
+        };
+    }
+    macro_rules! cmpop {
+        ($name:ident, $intr:ident) => {
+            #[inline(always)]
+            pub fn $name(self, o: F4) -> M4 {
+                unsafe { M4($intr(self.0, o.0)) }
+            }
+        };
+    }
 
     impl F4 {
         #[inline(always)]
@@ -146,36 +177,66 @@ mod f4 {
             unsafe { _mm_storeu_ps(out.as_mut_ptr(), self.0) };
             out
         }
+        binop!(add, _mm_add_ps);
+        binop!(sub, _mm_sub_ps);
+        binop!(mul, _mm_mul_ps);
+        binop!(div, _mm_div_ps);
+        // `self < o ? self : o`
+        binop!(min, _mm_min_ps);
+        // `self > o ? self : o`
+        binop!(max, _mm_max_ps);
+        cmpop!(lt, _mm_cmplt_ps);
+        cmpop!(le, _mm_cmple_ps);
+        cmpop!(gt, _mm_cmpgt_ps);
+        cmpop!(ge, _mm_cmpge_ps);
+        cmpop!(ne, _mm_cmpneq_ps);
         #[inline(always)]
-        pub fn sub(self, o: F4) -> F4 {
-            unsafe { F4(_mm_sub_ps(self.0, o.0)) }
-        }
-        #[inline(always)]
-        pub fn mul(self, o: F4) -> F4 {
-            unsafe { F4(_mm_mul_ps(self.0, o.0)) }
-        }
-        /// `self < o ? self : o`
-        #[inline(always)]
-        pub fn min(self, o: F4) -> F4 {
-            unsafe { F4(_mm_min_ps(self.0, o.0)) }
-        }
-        /// `self > o ? self : o`
-        #[inline(always)]
-        pub fn max(self, o: F4) -> F4 {
-            unsafe { F4(_mm_max_ps(self.0, o.0)) }
+        pub fn abs(self) -> F4 {
+            unsafe { F4(_mm_andnot_ps(_mm_set1_ps(-0.0), self.0)) }
         }
         /// Bit `k` set where `self[k] <= o[k]`.
         #[inline(always)]
         pub fn le_mask(self, o: F4) -> u32 {
-            unsafe { _mm_movemask_ps(_mm_cmple_ps(self.0, o.0)) as u32 }
+            self.le(o).bits()
+        }
+    }
+
+    impl M4 {
+        #[inline(always)]
+        pub fn and(self, o: M4) -> M4 {
+            unsafe { M4(_mm_and_ps(self.0, o.0)) }
+        }
+        #[inline(always)]
+        pub fn bits(self) -> u32 {
+            unsafe { _mm_movemask_ps(self.0) as u32 }
         }
     }
 }
 
 #[cfg(not(target_arch = "x86_64"))]
-mod f4 {
+pub(crate) mod f4 {
     #[derive(Clone, Copy)]
     pub struct F4([f32; 4]);
+
+    #[derive(Clone, Copy)]
+    pub struct M4([bool; 4]);
+
+    macro_rules! binop {
+        ($name:ident, $f:expr) => {
+            #[inline(always)]
+            pub fn $name(self, o: F4) -> F4 {
+                F4(std::array::from_fn(|k| $f(self.0[k], o.0[k])))
+            }
+        };
+    }
+    macro_rules! cmpop {
+        ($name:ident, $f:expr) => {
+            #[inline(always)]
+            pub fn $name(self, o: F4) -> M4 {
+                M4(std::array::from_fn(|k| $f(self.0[k], o.0[k])))
+            }
+        };
+    }
 
     impl F4 {
         #[inline(always)]
@@ -190,29 +251,35 @@ mod f4 {
         pub fn to_array(self) -> [f32; 4] {
             self.0
         }
+        binop!(add, |a: f32, b: f32| a + b);
+        binop!(sub, |a: f32, b: f32| a - b);
+        binop!(mul, |a: f32, b: f32| a * b);
+        binop!(div, |a: f32, b: f32| a / b);
+        binop!(min, |a: f32, b: f32| if a < b { a } else { b });
+        binop!(max, |a: f32, b: f32| if a > b { a } else { b });
+        cmpop!(lt, |a: f32, b: f32| a < b);
+        cmpop!(le, |a: f32, b: f32| a <= b);
+        cmpop!(gt, |a: f32, b: f32| a > b);
+        cmpop!(ge, |a: f32, b: f32| a >= b);
+        cmpop!(ne, |a: f32, b: f32| a != b);
         #[inline(always)]
-        fn zip(self, o: F4, f: impl Fn(f32, f32) -> f32) -> F4 {
-            F4(std::array::from_fn(|k| f(self.0[k], o.0[k])))
-        }
-        #[inline(always)]
-        pub fn sub(self, o: F4) -> F4 {
-            self.zip(o, |a, b| a - b)
-        }
-        #[inline(always)]
-        pub fn mul(self, o: F4) -> F4 {
-            self.zip(o, |a, b| a * b)
-        }
-        #[inline(always)]
-        pub fn min(self, o: F4) -> F4 {
-            self.zip(o, |a, b| if a < b { a } else { b })
-        }
-        #[inline(always)]
-        pub fn max(self, o: F4) -> F4 {
-            self.zip(o, |a, b| if a > b { a } else { b })
+        pub fn abs(self) -> F4 {
+            F4(self.0.map(f32::abs))
         }
         #[inline(always)]
         pub fn le_mask(self, o: F4) -> u32 {
-            (0..4).fold(0, |m, k| m | (((self.0[k] <= o.0[k]) as u32) << k))
+            self.le(o).bits()
+        }
+    }
+
+    impl M4 {
+        #[inline(always)]
+        pub fn and(self, o: M4) -> M4 {
+            M4(std::array::from_fn(|k| self.0[k] && o.0[k]))
+        }
+        #[inline(always)]
+        pub fn bits(self) -> u32 {
+            (0..4).fold(0, |m, k| m | ((self.0[k] as u32) << k))
         }
     }
 }
@@ -321,7 +388,18 @@ impl Bvh {
     /// Builds the tree over `boxes`. Boxes that are empty or not finite
     /// (NaN) can never be hit and are left out: they get no slot.
     pub fn build(boxes: &[Aabb], quality: BuildQuality) -> Bvh {
-        let preset = quality.preset();
+        Self::build_aligned(boxes, quality, 1)
+    }
+
+    /// As `build`, with every leaf's first slot a multiple of `align` and
+    /// its slot range padded up to a multiple of `align` (padding slots map
+    /// to `PADDING` in `primitive_indices`). A caller that stores its
+    /// primitives in packs of `align` then tests a leaf pack by pack; the
+    /// SAH counts leaf cost in packs.
+    pub fn build_aligned(boxes: &[Aabb], quality: BuildQuality, align: usize) -> Bvh {
+        let align = align.clamp(1, 16);
+        let mut preset = quality.preset();
+        preset.max_leaf = preset.max_leaf.div_ceil(align) * align;
         let mut order: Vec<u32> = (0..boxes.len() as u32)
             .filter(|&i| {
                 let b = &boxes[i as usize];
@@ -341,16 +419,22 @@ impl Bvh {
             boxes,
             centroids: &centroids,
             preset,
+            align,
         };
         let bounds = order
             .iter()
             .fold(Aabb::EMPTY, |a, &i| a.union(boxes[i as usize]));
         let root = ctx.build(&mut order, 0, bounds, 0);
-        let mut nodes = Vec::with_capacity(order.len() / 2 + 1);
-        let depth = collapse(&root, &mut nodes, 1);
+        let mut out = Collapse {
+            nodes: Vec::with_capacity(order.len() / 2 + 1),
+            src: &order,
+            slots: Vec::with_capacity(order.len() + order.len() / 2),
+            align,
+        };
+        let depth = out.node(&root, 1);
         Bvh {
-            nodes,
-            order,
+            nodes: out.nodes,
+            order: out.slots,
             bounds,
             depth,
         }
@@ -379,10 +463,46 @@ impl Bvh {
     /// Closest hit: `hit(slot, ray)` intersects the primitive in `slot`
     /// with a ray whose `t_max` is the closest hit so far, and returns its
     /// distance and payload. Returns the closest `(t, slot, payload)`.
+    /// Padding slots are never passed.
     #[inline]
     pub fn intersect_with<H, F>(&self, ray: &Ray, mut hit: F) -> Option<(f32, u32, H)>
     where
         F: FnMut(u32, &Ray) -> Option<(f32, H)>,
+    {
+        self.intersect_leaves(ray, |first, count, r| {
+            let mut r = *r;
+            let mut best = None;
+            for slot in first..first + count {
+                if let Some((t, h)) = hit(slot, &r) {
+                    r.t_max = t;
+                    best = Some((t, (slot, h)));
+                }
+            }
+            best
+        })
+        .map(|(t, (slot, h))| (t, slot, h))
+    }
+
+    /// Any hit, primitive by primitive: whether `hit(slot, ray)` is true
+    /// for some primitive whose box the ray touches. Stops at the first.
+    #[inline]
+    pub fn occluded<F>(&self, ray: &Ray, mut hit: F) -> bool
+    where
+        F: FnMut(u32, &Ray) -> bool,
+    {
+        self.occluded_leaves(ray, |first, count, r| {
+            (first..first + count).any(|slot| hit(slot, r))
+        })
+    }
+
+    /// Closest hit, leaf by leaf: `leaf(first, count, ray)` tests the slots
+    /// `first..first + count` (then padding up to the alignment) against a
+    /// ray whose `t_max` is the closest hit so far, and returns the closest
+    /// of its hits below `t_max`.
+    #[inline]
+    pub fn intersect_leaves<H, F>(&self, ray: &Ray, mut leaf: F) -> Option<(f32, H)>
+    where
+        F: FnMut(u32, u32, &Ray) -> Option<(f32, H)>,
     {
         if self.nodes.is_empty() {
             return None;
@@ -441,13 +561,9 @@ impl Bvh {
                     cur = hits[n - 1];
                     continue;
                 }
-            } else {
-                for slot in cur.node..cur.node + cur.count {
-                    if let Some((t, h)) = hit(slot, &r) {
-                        r.t_max = t;
-                        best = Some((t, slot, h));
-                    }
-                }
+            } else if let Some((t, h)) = leaf(cur.node, cur.count, &r) {
+                r.t_max = t;
+                best = Some((t, h));
             }
             // Next subtree that may still hold a closer hit (with the same
             // widening as the box test).
@@ -465,12 +581,12 @@ impl Bvh {
         }
     }
 
-    /// Any hit: whether `hit(slot, ray)` is true for some primitive whose
-    /// box the ray touches. Stops at the first.
+    /// Any hit, leaf by leaf: whether `leaf(first, count, ray)` is true for
+    /// some leaf the ray reaches. Stops at the first.
     #[inline]
-    pub fn occluded<F>(&self, ray: &Ray, mut hit: F) -> bool
+    pub fn occluded_leaves<F>(&self, ray: &Ray, mut leaf: F) -> bool
     where
-        F: FnMut(u32, &Ray) -> bool,
+        F: FnMut(u32, u32, &Ray) -> bool,
     {
         if self.nodes.is_empty() {
             return false;
@@ -507,12 +623,8 @@ impl Bvh {
                     };
                     continue;
                 }
-            } else {
-                for slot in cur.node..cur.node + cur.count {
-                    if hit(slot, ray) {
-                        return true;
-                    }
-                }
+            } else if leaf(cur.node, cur.count, ray) {
+                return true;
             }
             match stack.pop() {
                 None => return false,
@@ -540,6 +652,7 @@ struct BuildCtx<'a> {
     boxes: &'a [Aabb],
     centroids: &'a [Vec3],
     preset: Preset,
+    align: usize,
 }
 
 enum Split {
@@ -627,6 +740,12 @@ impl BuildCtx<'_> {
         }
     }
 
+    /// Cost of testing `n` primitives: packs of `align`.
+    #[inline]
+    fn packs(&self, n: usize) -> f32 {
+        n.div_ceil(self.align) as f32 * self.preset.pack_cost
+    }
+
     fn bounds_of(&self, idx: &[u32]) -> Aabb {
         idx.iter()
             .fold(Aabb::EMPTY, |a, &i| a.union(self.boxes[i as usize]))
@@ -678,7 +797,8 @@ impl BuildCtx<'_> {
                 if lc == 0 || right_count[k] == 0 {
                     continue;
                 }
-                let cost = lb.half_area() * lc as f32 + right_area[k] * right_count[k] as f32;
+                let cost = lb.half_area() * self.packs(lc as usize)
+                    + right_area[k] * self.packs(right_count[k] as usize);
                 if best.map_or(true, |(c, _, _)| cost < c) {
                     best = Some((cost, axis, k));
                 }
@@ -689,7 +809,7 @@ impl BuildCtx<'_> {
         };
         let area = bounds.half_area();
         let split_cost = self.preset.traversal_cost + cost / area.max(f32::MIN_POSITIVE);
-        if n <= self.preset.max_leaf && (n as f32) <= split_cost {
+        if n <= self.preset.max_leaf && self.packs(n) <= split_cost {
             return Split::Leaf;
         }
         let (min, s) = (cb.min[axis], scale[axis]);
@@ -734,57 +854,80 @@ fn partition(idx: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
     }
 }
 
-/// Emits the 4-wide node for binary node `node` (an inner node, or the
-/// root even when it is a leaf) and its subtree; returns the subtree's depth.
-fn collapse(node: &BuildNode, nodes: &mut Vec<Node4>, depth: usize) -> usize {
-    let at = nodes.len();
-    nodes.push(Node4::EMPTY);
-    let mut out = Node4::EMPTY;
-    let mut max_depth = depth;
-    match node {
-        BuildNode::Leaf { first, count } => {
-            // A root that is a leaf: one child holding every slot.
-            out.set_box(
-                0,
-                &Aabb::new(Vec3::splat(f32::NEG_INFINITY), Vec3::splat(f32::INFINITY)),
-            );
-            out.child[0] = *first;
-            out.count[0] = *count;
-        }
-        BuildNode::Inner { children } => {
-            let mut kids: Vec<&(Aabb, BuildNode)> = children.iter().collect();
-            // Open the largest inner child until there are four.
-            while kids.len() < 4 {
-                let widest = kids
-                    .iter()
-                    .enumerate()
-                    .filter(|(_, k)| matches!(k.1, BuildNode::Inner { .. }))
-                    .max_by(|a, b| a.1 .0.half_area().total_cmp(&b.1 .0.half_area()))
-                    .map(|(i, _)| i);
-                let Some(w) = widest else { break };
-                let BuildNode::Inner { children } = &kids[w].1 else {
-                    unreachable!()
-                };
-                kids.swap_remove(w);
-                kids.extend(children.iter());
+/// Collapse of the binary tree into `Node4`s, assigning (padded) slots to
+/// leaves in the order traversal meets them.
+struct Collapse<'a> {
+    nodes: Vec<Node4>,
+    /// Primitive order of the binary build.
+    src: &'a [u32],
+    slots: Vec<u32>,
+    align: usize,
+}
+
+impl Collapse<'_> {
+    /// Slots for the leaf `src[first..first + count]`; returns the first.
+    fn leaf(&mut self, first: u32, count: u32) -> u32 {
+        let at = self.slots.len();
+        let (f, c) = (first as usize, count as usize);
+        self.slots.extend_from_slice(&self.src[f..f + c]);
+        let padded = c.div_ceil(self.align) * self.align;
+        self.slots.resize(at + padded, PADDING);
+        at as u32
+    }
+
+    /// Emits the 4-wide node for binary node `node` (an inner node, or the
+    /// root even when it is a leaf) and its subtree; returns the subtree's
+    /// depth.
+    fn node(&mut self, node: &BuildNode, depth: usize) -> usize {
+        let at = self.nodes.len();
+        self.nodes.push(Node4::EMPTY);
+        let mut out = Node4::EMPTY;
+        let mut max_depth = depth;
+        match node {
+            BuildNode::Leaf { first, count } => {
+                // A root that is a leaf: one child holding every slot.
+                let everything = Aabb::new(Vec3::splat(f32::MIN), Vec3::splat(f32::MAX));
+                out.set_box(0, &everything);
+                out.child[0] = self.leaf(*first, *count);
+                out.count[0] = *count;
             }
-            for (k, (b, kid)) in kids.into_iter().enumerate() {
-                out.set_box(k, b);
-                match kid {
-                    BuildNode::Leaf { first, count } => {
-                        out.child[k] = *first;
-                        out.count[k] = *count;
-                    }
-                    inner => {
-                        out.child[k] = nodes.len() as u32;
-                        max_depth = max_depth.max(collapse(inner, nodes, depth + 1));
+            BuildNode::Inner { children } => {
+                let mut kids: Vec<&(Aabb, BuildNode)> = children.iter().collect();
+                // Open the largest inner child until there are four.
+                while kids.len() < 4 {
+                    let widest = kids
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, k)| matches!(k.1, BuildNode::Inner { .. }))
+                        .max_by(|a, b| a.1 .0.half_area().total_cmp(&b.1 .0.half_area()))
+                        .map(|(i, _)| i);
+                    let Some(w) = widest else { break };
+                    let BuildNode::Inner { children } = &kids[w].1 else {
+                        unreachable!()
+                    };
+                    kids.swap_remove(w);
+                    kids.extend(children.iter());
+                }
+                // Leaves first: their slots then sit next to each other.
+                kids.sort_by_key(|k| matches!(k.1, BuildNode::Inner { .. }));
+                for (k, (b, kid)) in kids.into_iter().enumerate() {
+                    out.set_box(k, b);
+                    match kid {
+                        BuildNode::Leaf { first, count } => {
+                            out.child[k] = self.leaf(*first, *count);
+                            out.count[k] = *count;
+                        }
+                        inner => {
+                            out.child[k] = self.nodes.len() as u32;
+                            max_depth = max_depth.max(self.node(inner, depth + 1));
+                        }
                     }
                 }
             }
         }
+        self.nodes[at] = out;
+        max_depth
     }
-    nodes[at] = out;
-    max_depth
 }
 
 #[cfg(test)]
