@@ -70,6 +70,30 @@ impl BuildQuality {
     }
 }
 
+/// How to build.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BuildSettings {
+    pub quality: BuildQuality,
+    /// Every leaf's first slot is a multiple of `align`, and its slot range
+    /// is padded up to a multiple of `align` (padding slots map to
+    /// `PADDING` in `primitive_indices`). A caller that stores primitives
+    /// in packs of `align` then tests a leaf pack by pack. At most 16.
+    pub align: usize,
+    /// Cost of testing one pack of `align` primitives, relative to a visit
+    /// of one 4-wide node (the SAH's two constants).
+    pub leaf_cost: f32,
+}
+
+impl Default for BuildSettings {
+    fn default() -> Self {
+        Self {
+            quality: BuildQuality::Balanced,
+            align: 1,
+            leaf_cost: 1.0,
+        }
+    }
+}
+
 /// `primitive_indices` entry of a padding slot.
 pub const PADDING: u32 = u32::MAX;
 
@@ -388,18 +412,23 @@ impl Bvh {
     /// Builds the tree over `boxes`. Boxes that are empty or not finite
     /// (NaN) can never be hit and are left out: they get no slot.
     pub fn build(boxes: &[Aabb], quality: BuildQuality) -> Bvh {
-        Self::build_aligned(boxes, quality, 1)
+        Self::build_with(
+            boxes,
+            &BuildSettings {
+                quality,
+                ..BuildSettings::default()
+            },
+        )
     }
 
-    /// As `build`, with every leaf's first slot a multiple of `align` and
-    /// its slot range padded up to a multiple of `align` (padding slots map
-    /// to `PADDING` in `primitive_indices`). A caller that stores its
-    /// primitives in packs of `align` then tests a leaf pack by pack; the
-    /// SAH counts leaf cost in packs.
-    pub fn build_aligned(boxes: &[Aabb], quality: BuildQuality, align: usize) -> Bvh {
-        let align = align.clamp(1, 16);
-        let mut preset = quality.preset();
+    /// As `build`, with the leaf layout and costs of `settings`.
+    pub fn build_with(boxes: &[Aabb], settings: &BuildSettings) -> Bvh {
+        let align = settings.align.clamp(1, 16);
+        let mut preset = settings.quality.preset();
         preset.max_leaf = preset.max_leaf.div_ceil(align) * align;
+        if settings.leaf_cost.is_finite() && settings.leaf_cost > 0.0 {
+            preset.pack_cost = settings.leaf_cost;
+        }
         let mut order: Vec<u32> = (0..boxes.len() as u32)
             .filter(|&i| {
                 let b = &boxes[i as usize];

@@ -10,7 +10,7 @@
 //! Padding lanes hold degenerate triangles, which are never hit.
 
 use super::bvh::f4::F4;
-use super::bvh::{BuildQuality, Bvh, PADDING};
+use super::bvh::{BuildQuality, BuildSettings, Bvh, PADDING};
 use super::{Backend, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::{Geometry, Scene};
@@ -160,8 +160,27 @@ impl NativeBackend {
             }
         }
         let (tri_bvh, analytic_bvh) = rayon::join(
-            || Bvh::build_aligned(&tri_boxes, quality, 4),
-            || Bvh::build(&boxes, quality),
+            || {
+                Bvh::build_with(
+                    &tri_boxes,
+                    &BuildSettings {
+                        quality,
+                        align: 4,
+                        leaf_cost: 1.0,
+                    },
+                )
+            },
+            // An analytic shape costs more than a box test: small leaves.
+            || {
+                Bvh::build_with(
+                    &boxes,
+                    &BuildSettings {
+                        quality,
+                        align: 1,
+                        leaf_cost: 2.0,
+                    },
+                )
+            },
         );
         let order = tri_bvh.primitive_indices();
         let mut packs = vec![TriPack::EMPTY; order.len() / 4];
