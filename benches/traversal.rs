@@ -73,6 +73,12 @@ fn sphere(n: usize, center: Vec3, radius: f32) -> Mesh {
 /// The bunny scene of scenes/bunny.toml, with the mesh loaded here (so the
 /// benchmark does not depend on the PLY loader).
 fn bunny_scene() -> (Scene, &'static str) {
+    if std::env::var_os("LUZ_ASSETS").is_none() {
+        std::env::set_var("LUZ_ASSETS", assets());
+    }
+    if let Ok(scene) = luz::scene::load(Path::new("scenes/bunny.toml")) {
+        return (scene, "bunny");
+    }
     let text = std::fs::read_to_string("scenes/bunny.toml").expect("run from the crate root");
     let cut = text
         .find("[[shapes]] # p'")
@@ -147,6 +153,38 @@ fn cpu_time(start: Instant) -> f64 {
 }
 
 /// Mrays/s per CPU-second of `f` (which traces `n` rays), and its result.
+/// Rays as a path tracer casts them: camera rays (one per pixel of a
+/// 512x512 image), then two diffuse bounces, with a shadow ray towards the
+/// light's middle from every hit.
+fn render_rays(scene: &Scene) -> (Vec<Ray>, Vec<Ray>) {
+    use luz::math::{spawn_ray, spawn_ray_to, Frame};
+    let b = NativeBackend::new(Arc::new(scene.clone()));
+    let cam = &scene.camera;
+    let basis = cam.basis();
+    let mut rng = Rng::new(5, 6);
+    let light = Vec3::new(0.0, 1.98, 0.0);
+    let mut closest = Vec::new();
+    let mut shadow = Vec::new();
+    for y in 0..512 {
+        for x in 0..512 {
+            let px =
+                luz::math::Vec2::new(x as f32, y as f32) * cam.width as f32 / 512.0 + rng.next_2d();
+            let mut ray = cam.ray(&basis, px);
+            for _ in 0..3 {
+                closest.push(ray);
+                let Some(hit) = b.intersect(&ray) else { break };
+                let sp = scene.surface(&ray, &hit);
+                let n = if sp.n.dot(ray.dir) < 0.0 { sp.n } else { -sp.n };
+                shadow.push(spawn_ray_to(sp.p, sp.p_err, n, light, Vec3::ZERO, -Vec3::Y));
+                let d =
+                    Frame::from_normal(n).to_world(luz::sampling::cosine_hemisphere(rng.next_2d()));
+                ray = spawn_ray(sp.p, sp.p_err, n, d);
+            }
+        }
+    }
+    (closest, shadow)
+}
+
 fn mrays(n: usize, f: impl Fn() -> usize) -> (f64, usize) {
     f(); // warm up
     let wall = Instant::now();
@@ -187,11 +225,7 @@ fn print_rays(scene: &Arc<Scene>, what: &str) {
         "armadillo/armadillo.obj",
     ] {
         let path = assets().join("stanford").join(name);
-        if let Some(m) = path
-            .extension()
-            .filter(|e| *e == "obj")
-            .and_then(|_| load_obj(&path))
-        {
+        if let Ok(m) = luz::scene::mesh_io::load_mesh(&path) {
             let boxes = triangle_boxes(&m);
             let t = Instant::now();
             let bvh = Bvh::build(&boxes, BuildQuality::Balanced);
@@ -203,7 +237,11 @@ fn print_rays(scene: &Arc<Scene>, what: &str) {
             );
         }
     }
-    let (closest, shadow) = rays(1 << 20);
+    let (closest, shadow) = if std::env::args().any(|a| a == "box") {
+        rays(1 << 20)
+    } else {
+        render_rays(scene)
+    };
     for q in [
         BuildQuality::Fast,
         BuildQuality::Balanced,
