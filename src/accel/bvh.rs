@@ -310,8 +310,9 @@ pub(crate) mod f4 {
 
 use f4::F4;
 
-/// A ray prepared for box tests.
-struct TravRay {
+/// A ray prepared for box tests (reciprocal direction, near planes), to
+/// share between several trees.
+pub struct TravRay {
     org: [F4; 3],
     inv: [F4; 3],
     /// Row of `Node4::bounds` holding the near plane, per axis.
@@ -327,7 +328,7 @@ impl TravRay {
     /// `None` for rays no box test can handle (NaN or infinite inputs);
     /// such rays hit nothing.
     #[inline(always)]
-    fn new(ray: &Ray) -> Option<Self> {
+    pub fn new(ray: &Ray) -> Option<Self> {
         if !(ray.origin.is_finite() && ray.dir.is_finite()) || ray.t_min.is_nan() {
             return None;
         }
@@ -529,14 +530,30 @@ impl Bvh {
     /// ray whose `t_max` is the closest hit so far, and returns the closest
     /// of its hits below `t_max`.
     #[inline]
-    pub fn intersect_leaves<H, F>(&self, ray: &Ray, mut leaf: F) -> Option<(f32, H)>
+    pub fn intersect_leaves<H, F>(&self, ray: &Ray, leaf: F) -> Option<(f32, H)>
     where
         F: FnMut(u32, u32, &Ray) -> Option<(f32, H)>,
     {
         if self.nodes.is_empty() {
             return None;
         }
-        let tr = TravRay::new(ray)?;
+        self.intersect_leaves_prepared(&TravRay::new(ray)?, ray, leaf)
+    }
+
+    /// `intersect_leaves` with the ray already prepared (`TravRay::new(ray)`).
+    #[inline]
+    pub fn intersect_leaves_prepared<H, F>(
+        &self,
+        tr: &TravRay,
+        ray: &Ray,
+        mut leaf: F,
+    ) -> Option<(f32, H)>
+    where
+        F: FnMut(u32, u32, &Ray) -> Option<(f32, H)>,
+    {
+        if self.nodes.is_empty() {
+            return None;
+        }
         let mut r = *ray;
         let mut best = None;
         let mut stack = Stack::new();
@@ -613,16 +630,28 @@ impl Bvh {
     /// Any hit, leaf by leaf: whether `leaf(first, count, ray)` is true for
     /// some leaf the ray reaches. Stops at the first.
     #[inline]
-    pub fn occluded_leaves<F>(&self, ray: &Ray, mut leaf: F) -> bool
+    pub fn occluded_leaves<F>(&self, ray: &Ray, leaf: F) -> bool
     where
         F: FnMut(u32, u32, &Ray) -> bool,
     {
         if self.nodes.is_empty() {
             return false;
         }
-        let Some(tr) = TravRay::new(ray) else {
+        match TravRay::new(ray) {
+            Some(tr) => self.occluded_leaves_prepared(&tr, ray, leaf),
+            None => false,
+        }
+    }
+
+    /// `occluded_leaves` with the ray already prepared (`TravRay::new(ray)`).
+    #[inline]
+    pub fn occluded_leaves_prepared<F>(&self, tr: &TravRay, ray: &Ray, mut leaf: F) -> bool
+    where
+        F: FnMut(u32, u32, &Ray) -> bool,
+    {
+        if self.nodes.is_empty() {
             return false;
-        };
+        }
         let mut stack = Stack::new();
         let mut cur = Entry {
             node: 0,
