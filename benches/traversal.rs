@@ -1,0 +1,336 @@
+//! Native BVH benchmarks: build time, closest-hit and any-hit throughput on
+//! incoherent rays, and (with `-- render`) the bunny render at the project's
+//! reference settings (512x512, 64 spp, max depth 5, no Russian roulette).
+//!
+//! `cargo bench --bench traversal` runs the criterion groups;
+//! `cargo bench --bench traversal -- rays` prints Mrays/s and build times
+//! once; `RAYON_NUM_THREADS=2 cargo bench --bench traversal -- render` times
+//! the render. The bunny comes from `$LUZ_ASSETS` (default
+//! /work/shared/assets); without it a tessellated sphere of similar size
+//! stands in.
+
+use criterion::{black_box, Criterion, Throughput};
+use luz::accel::bvh::{BuildQuality, Bvh};
+use luz::accel::native::NativeBackend;
+use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
+use luz::math::{Aabb, Ray, Vec3};
+use luz::sampling::{uniform_sphere, Rng};
+use luz::scene::shape::Mesh;
+use luz::scene::{Geometry, Scene, Shape};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+fn assets() -> PathBuf {
+    std::env::var_os("LUZ_ASSETS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from("/work/shared/assets"))
+}
+
+fn load_obj(path: &Path) -> Option<Mesh> {
+    let (models, _) = tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).ok()?;
+    let mut mesh = Mesh::default();
+    for m in models {
+        let base = mesh.positions.len() as u32;
+        let p = &m.mesh.positions;
+        mesh.positions
+            .extend(p.chunks(3).map(|c| Vec3::new(c[0], c[1], c[2])));
+        mesh.indices.extend(
+            m.mesh
+                .indices
+                .chunks(3)
+                .map(|c| [base + c[0], base + c[1], base + c[2]]),
+        );
+    }
+    Some(mesh)
+}
+
+/// A UV sphere of about `n` triangles.
+fn sphere(n: usize, center: Vec3, radius: f32) -> Mesh {
+    let rings = ((n / 2) as f32).sqrt() as u32;
+    let segs = rings;
+    let mut mesh = Mesh::default();
+    for i in 0..=rings {
+        let th = std::f32::consts::PI * i as f32 / rings as f32;
+        for j in 0..segs {
+            let ph = 2.0 * std::f32::consts::PI * j as f32 / segs as f32;
+            mesh.positions.push(
+                center + radius * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()),
+            );
+        }
+    }
+    for i in 0..rings {
+        for j in 0..segs {
+            let a = i * segs + j;
+            let b = i * segs + (j + 1) % segs;
+            mesh.indices.push([a, b, a + segs]);
+            mesh.indices.push([b, b + segs, a + segs]);
+        }
+    }
+    mesh
+}
+
+/// The bunny scene of scenes/bunny.toml, with the mesh loaded here (so the
+/// benchmark does not depend on the PLY loader).
+fn bunny_scene() -> (Scene, &'static str) {
+    if std::env::var_os("LUZ_ASSETS").is_none() {
+        std::env::set_var("LUZ_ASSETS", assets());
+    }
+    if let Ok(scene) = luz::scene::load(Path::new("scenes/bunny.toml")) {
+        return (scene, "bunny");
+    }
+    let text = std::fs::read_to_string("scenes/bunny.toml").expect("run from the crate root");
+    let cut = text
+        .find("[[shapes]] # p'")
+        .expect("bunny.toml's mesh shape");
+    let mut scene =
+        luz::scene::load_str(&text[..cut], Path::new("scenes/bunny.toml")).expect("bunny.toml");
+    let white = scene.shapes[0].material;
+    let (mesh, what) = match load_obj(&assets().join("stanford/bunny/stanford-bunny.obj")) {
+        Some(mut m) => {
+            m.transform(
+                &(luz::math::Mat4::from_translation(Vec3::new(0.1178828, -0.2309118, 0.01075865))
+                    * luz::math::Mat4::from_scale(Vec3::splat(7.0))),
+            );
+            (m, "bunny")
+        }
+        None => (sphere(70_000, Vec3::new(0.0, 0.6, 0.0), 0.5), "sphere"),
+    };
+    scene.shapes.push(Shape::new(Geometry::Mesh(mesh), white));
+    let s = scene;
+    (
+        Scene::new(
+            s.camera,
+            s.materials,
+            s.textures,
+            s.shapes,
+            s.point_lights,
+            s.environment,
+            s.render,
+        ),
+        what,
+    )
+}
+
+fn triangle_boxes(mesh: &Mesh) -> Vec<Aabb> {
+    (0..mesh.triangle_count() as u32)
+        .map(|i| mesh.triangle_bounds(i))
+        .collect()
+}
+
+/// Rays from random points in the box towards random directions, and
+/// shadow segments between random points: both incoherent.
+fn rays(n: usize) -> (Vec<Ray>, Vec<Ray>) {
+    let mut rng = Rng::new(1, 2);
+    let mut p = || {
+        Vec3::new(
+            rng.next_f32() * 1.9 - 0.95,
+            rng.next_f32() * 1.9 + 0.05,
+            rng.next_f32() * 1.9 - 0.95,
+        )
+    };
+    let pts: Vec<(Vec3, Vec3)> = (0..n).map(|_| (p(), p())).collect();
+    let mut rng = Rng::new(3, 4);
+    let closest = pts
+        .iter()
+        .map(|&(a, _)| Ray::new(a, uniform_sphere(rng.next_2d())))
+        .collect();
+    let shadow = pts
+        .iter()
+        .map(|&(a, b)| Ray::segment(a, b - a, 1.0 - 1e-4))
+        .collect();
+    (closest, shadow)
+}
+
+/// Seconds this thread has spent on a CPU (Linux; wall time elsewhere):
+/// the machine is shared, and CPU time is far less noisy than wall time.
+fn cpu_time(start: Instant) -> f64 {
+    std::fs::read_to_string("/proc/thread-self/schedstat")
+        .ok()
+        .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+        .map(|ns| ns as f64 * 1e-9)
+        .unwrap_or_else(|| start.elapsed().as_secs_f64())
+}
+
+/// Mrays/s per CPU-second of `f` (which traces `n` rays), and its result.
+/// Rays as a path tracer casts them: camera rays (one per pixel of a
+/// 512x512 image), then two diffuse bounces, with a shadow ray towards the
+/// light's middle from every hit.
+fn render_rays(scene: &Scene) -> (Vec<Ray>, Vec<Ray>) {
+    use luz::math::{spawn_ray, spawn_ray_to, Frame};
+    let b = NativeBackend::new(Arc::new(scene.clone()));
+    let cam = &scene.camera;
+    let basis = cam.basis();
+    let mut rng = Rng::new(5, 6);
+    let light = Vec3::new(0.0, 1.98, 0.0);
+    let mut closest = Vec::new();
+    let mut shadow = Vec::new();
+    for y in 0..512 {
+        for x in 0..512 {
+            let px =
+                luz::math::Vec2::new(x as f32, y as f32) * cam.width as f32 / 512.0 + rng.next_2d();
+            let mut ray = cam.ray(&basis, px);
+            for _ in 0..3 {
+                closest.push(ray);
+                let Some(hit) = b.intersect(&ray) else { break };
+                let sp = scene.surface(&ray, &hit);
+                let n = if sp.n.dot(ray.dir) < 0.0 { sp.n } else { -sp.n };
+                shadow.push(spawn_ray_to(sp.p, sp.p_err, n, light, Vec3::ZERO, -Vec3::Y));
+                let d =
+                    Frame::from_normal(n).to_world(luz::sampling::cosine_hemisphere(rng.next_2d()));
+                ray = spawn_ray(sp.p, sp.p_err, n, d);
+            }
+        }
+    }
+    (closest, shadow)
+}
+
+fn mrays(n: usize, f: impl Fn() -> usize) -> (f64, usize) {
+    f(); // warm up
+    let wall = Instant::now();
+    let t0 = cpu_time(wall);
+    let mut reps = 0;
+    let mut hits = 0;
+    while cpu_time(wall) - t0 < 1.0 || reps < 2 {
+        hits = f();
+        reps += 1;
+    }
+    ((n * reps) as f64 / (cpu_time(wall) - t0) / 1e6, hits)
+}
+
+fn print_rays(scene: &Arc<Scene>, what: &str) {
+    let mesh = match &scene.shapes.last().unwrap().geometry {
+        Geometry::Mesh(m) => m,
+        _ => unreachable!(),
+    };
+    let boxes = triangle_boxes(mesh);
+    for q in [
+        BuildQuality::Fast,
+        BuildQuality::Balanced,
+        BuildQuality::High,
+    ] {
+        let t = Instant::now();
+        let bvh = Bvh::build(&boxes, q);
+        println!(
+            "build {what} ({} tris) {q:?}: {:.1} ms, {} nodes, depth {}",
+            boxes.len(),
+            t.elapsed().as_secs_f64() * 1e3,
+            bvh.node_count(),
+            bvh.depth()
+        );
+    }
+    for name in [
+        "dragon/dragon_vrip.ply",
+        "lucy/lucy.ply",
+        "armadillo/armadillo.obj",
+    ] {
+        let path = assets().join("stanford").join(name);
+        if let Ok(m) = luz::scene::mesh_io::load_mesh(&path) {
+            let boxes = triangle_boxes(&m);
+            let t = Instant::now();
+            let bvh = Bvh::build(&boxes, BuildQuality::Balanced);
+            println!(
+                "build {name} ({} tris) Balanced: {:.1} ms, {} nodes",
+                boxes.len(),
+                t.elapsed().as_secs_f64() * 1e3,
+                bvh.node_count()
+            );
+        }
+    }
+    let (closest, shadow) = if std::env::args().any(|a| a == "box") {
+        rays(1 << 20)
+    } else {
+        render_rays(scene)
+    };
+    for q in [
+        BuildQuality::Fast,
+        BuildQuality::Balanced,
+        BuildQuality::High,
+    ] {
+        let b = NativeBackend::with_quality(scene.clone(), q);
+        let (c, hits) = mrays(closest.len(), || {
+            closest.iter().filter(|r| b.intersect(r).is_some()).count()
+        });
+        let (o, occ) = mrays(shadow.len(), || {
+            shadow.iter().filter(|r| b.occluded(r)).count()
+        });
+        println!(
+            "{what} scene {q:?}, 1 thread: closest {c:.2} Mrays/s ({hits} hits), \
+             occluded {o:.2} Mrays/s ({occ} occluded)"
+        );
+    }
+}
+
+fn render(scene: Scene, what: &str) {
+    let mut scene = scene;
+    scene.camera.width = 512;
+    scene.camera.height = 512;
+    scene.render.spp = std::env::var("SPP")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(64);
+    scene.render.max_depth = 5;
+    scene.render.russian_roulette = false;
+    let scene = Arc::new(scene);
+    let t = Instant::now();
+    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let build = t.elapsed();
+    let opts = luz::render::RenderOptions::from_scene(&scene);
+    let (_film, stats) = luz::render::render_with(&scene, &accel, &opts, &());
+    println!(
+        "render {what} 512x512 {} spp depth 5, {} threads: {:.2} s (build {:.1} ms), \
+         {:.1} Mrays/s ({} camera, {} bounce, {} shadow)",
+        scene.render.spp,
+        rayon::current_num_threads(),
+        stats.wall.as_secs_f64(),
+        build.as_secs_f64() * 1e3,
+        stats.mrays_per_s(),
+        stats.rays.camera,
+        stats.rays.bounce,
+        stats.rays.shadow
+    );
+}
+
+fn criterion_groups(scene: &Arc<Scene>) {
+    let mut c = Criterion::default().configure_from_args().sample_size(10);
+    let mesh = match &scene.shapes.last().unwrap().geometry {
+        Geometry::Mesh(m) => m.clone(),
+        _ => unreachable!(),
+    };
+    let boxes = triangle_boxes(&mesh);
+    let mut g = c.benchmark_group("build");
+    for q in [
+        BuildQuality::Fast,
+        BuildQuality::Balanced,
+        BuildQuality::High,
+    ] {
+        g.bench_function(format!("{q:?}"), |b| {
+            b.iter(|| Bvh::build(black_box(&boxes), q))
+        });
+    }
+    g.finish();
+    let (closest, shadow) = rays(1 << 16);
+    let b = NativeBackend::new(scene.clone());
+    let mut g = c.benchmark_group("traversal");
+    g.throughput(Throughput::Elements(closest.len() as u64));
+    g.bench_function("closest", |bn| {
+        bn.iter(|| closest.iter().filter(|r| b.intersect(r).is_some()).count())
+    });
+    g.bench_function("occluded", |bn| {
+        bn.iter(|| shadow.iter().filter(|r| b.occluded(r)).count())
+    });
+    g.finish();
+    c.final_summary();
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().collect();
+    let (scene, what) = bunny_scene();
+    if args.iter().any(|a| a == "render") {
+        render(scene, what);
+    } else if args.iter().any(|a| a == "rays") {
+        print_rays(&Arc::new(scene), what);
+    } else {
+        criterion_groups(&Arc::new(scene));
+    }
+}
