@@ -836,7 +836,7 @@ impl BuildCtx<'_> {
         let mut right_area = [0.0f32; 64];
         let mut right_count = [0u32; 64];
         for axis in 0..3 {
-            if !(ext[axis] > 0.0) {
+            if ext[axis].is_nan() || ext[axis] <= 0.0 {
                 continue;
             }
             let bins = &bins[axis];
@@ -1066,11 +1066,20 @@ mod tests {
 
     /// Closest hit and any hit agree with brute force on every ray.
     fn check(tris: &[Tri], rays: &[Ray], quality: BuildQuality) -> usize {
+        let expected: Vec<_> = rays.iter().map(|r| brute(tris, r)).collect();
+        check_against(tris, rays, &expected, quality)
+    }
+
+    fn check_against(
+        tris: &[Tri],
+        rays: &[Ray],
+        expected: &[Option<(f32, u32)>],
+        quality: BuildQuality,
+    ) -> usize {
         let bvh = Bvh::build(&boxes_of(tris), quality);
         assert!(bvh.depth() <= MAX_DEPTH);
         let mut hits = 0;
-        for ray in rays {
-            let e = brute(tris, ray);
+        for (ray, &e) in rays.iter().zip(expected) {
             let g = closest(&bvh, tris, ray);
             match (e, g) {
                 (Some(e), Some(g)) => {
@@ -1101,6 +1110,43 @@ mod tests {
         ] {
             let hits = check(&tris, &rays, q);
             assert!(hits > 10_000 && hits < 90_000, "{hits} hits");
+        }
+    }
+
+    /// 4-aligned leaves: every real primitive has exactly one slot, leaves
+    /// start on multiples of four, and leaf-level traversal never hands out
+    /// a padding slot; results still match brute force.
+    #[test]
+    fn aligned_leaves_pad_and_match_brute_force() {
+        let mut rng = Rng::new(10, 1);
+        let tris = soup(&mut rng, 2000, 1.0, 0.08);
+        let settings = BuildSettings {
+            align: 4,
+            ..BuildSettings::default()
+        };
+        let bvh = Bvh::build_with(&boxes_of(&tris), &settings);
+        let order = bvh.primitive_indices();
+        assert_eq!(order.len() % 4, 0);
+        let mut real: Vec<u32> = order.iter().copied().filter(|&i| i != PADDING).collect();
+        real.sort_unstable();
+        assert!(real.iter().enumerate().all(|(i, &p)| i as u32 == p));
+        for _ in 0..20_000 {
+            let ray = random_ray(&mut rng, 1.0);
+            let got = bvh.intersect_leaves(&ray, |first, count, r| {
+                assert_eq!(first % 4, 0);
+                let mut r = *r;
+                let mut best = None;
+                for slot in first..first + count {
+                    let i = order[slot as usize];
+                    assert_ne!(i, PADDING);
+                    if let Some(t) = isect(&tris[i as usize], &r) {
+                        r.t_max = t;
+                        best = Some((t, i));
+                    }
+                }
+                best
+            });
+            assert_eq!(got.map(|g| g.0), brute(&tris, &ray).map(|e| e.0), "{ray:?}");
         }
     }
 
