@@ -470,6 +470,23 @@ impl Bvh {
         }
     }
 
+    /// Starts loading an inner node that traversal will visit later.
+    #[inline(always)]
+    fn prefetch(&self, e: &Entry) {
+        #[cfg(target_arch = "x86_64")]
+        if e.count == 0 {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let p = self.nodes.as_ptr().wrapping_add(e.node as usize) as *const i8;
+            // SAFETY: a prefetch never faults, whatever the address.
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(p);
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = e;
+    }
+
     /// Original primitive index of every slot, in slot order.
     pub fn primitive_indices(&self) -> &[u32] {
         &self.order
@@ -579,19 +596,31 @@ impl Bvh {
                         };
                         continue;
                     }
-                    // Several: sort by entry distance (at most four), push
-                    // the farther ones, descend into the nearest.
+                    let entry = |k: usize| Entry {
+                        node: node.child[k],
+                        count: node.count[k],
+                        t: t0[k],
+                    };
+                    let m1 = mask & (mask - 1);
+                    if m1 & (m1 - 1) == 0 {
+                        // Two, the common case: push the farther one.
+                        let a = entry(mask.trailing_zeros() as usize);
+                        let b = entry(m1.trailing_zeros() as usize);
+                        let (near, far) = if b.t < a.t { (b, a) } else { (a, b) };
+                        self.prefetch(&far);
+                        stack.push(far);
+                        cur = near;
+                        continue;
+                    }
+                    // Three or four: sort by entry distance, push the
+                    // farther ones, descend into the nearest.
                     let mut hits = [cur; 4];
                     let mut n = 0;
                     let mut m = mask;
                     while m != 0 {
                         let k = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        let e = Entry {
-                            node: node.child[k],
-                            count: node.count[k],
-                            t: t0[k],
-                        };
+                        let e = entry(k);
                         // Insertion sort, farthest first.
                         let mut j = n;
                         while j > 0 && hits[j - 1].t < e.t {
@@ -602,6 +631,7 @@ impl Bvh {
                         n += 1;
                     }
                     for e in &hits[..n - 1] {
+                        self.prefetch(e);
                         stack.push(*e);
                     }
                     cur = hits[n - 1];
@@ -668,11 +698,13 @@ impl Bvh {
                     while mask != 0 {
                         let j = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
-                        stack.push(Entry {
+                        let e = Entry {
                             node: node.child[j],
                             count: node.count[j],
                             t: 0.0,
-                        });
+                        };
+                        self.prefetch(&e);
+                        stack.push(e);
                     }
                     cur = Entry {
                         node: node.child[k],
