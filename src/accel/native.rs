@@ -239,30 +239,7 @@ impl Backend for NativeBackend {
         let mut best = None;
         let mut r = *ray;
         if let Some(tr) = TravRay::new(ray) {
-            // Analytic shapes first: few, often large, they shorten the ray.
-            let analytic =
-                self.analytic_bvh
-                    .intersect_leaves_prepared(&tr, &r, |first, count, r| {
-                        let mut r = *r;
-                        let mut best = None;
-                        for &geom in &self.analytic[first as usize..(first + count) as usize] {
-                            if let Some(h) = shapes[geom as usize].geometry.intersect(0, &r) {
-                                r.t_max = h.t;
-                                best = Some((h.t, (geom, h.u, h.v)));
-                            }
-                        }
-                        best
-                    });
-            if let Some((t, (geom, u, v))) = analytic {
-                r.t_max = t;
-                best = Some(Hit {
-                    t,
-                    geom,
-                    prim: 0,
-                    u,
-                    v,
-                });
-            }
+            // Triangles first: a hit on the mesh culls the walls behind it.
             let pr = PackRay::new(&r);
             let tri = self
                 .tri_bvh
@@ -291,6 +268,30 @@ impl Backend for NativeBackend {
                     t,
                     geom: pack.geom[k],
                     prim: pack.prim[k],
+                    u,
+                    v,
+                });
+            }
+            // Then analytic shapes, culled by the triangle hit.
+            let analytic =
+                self.analytic_bvh
+                    .intersect_leaves_prepared(&tr, &r, |first, count, r| {
+                        let mut r = *r;
+                        let mut best = None;
+                        for &geom in &self.analytic[first as usize..(first + count) as usize] {
+                            if let Some(h) = shapes[geom as usize].geometry.intersect(0, &r) {
+                                r.t_max = h.t;
+                                best = Some((h.t, (geom, h.u, h.v)));
+                            }
+                        }
+                        best
+                    });
+            if let Some((t, (geom, u, v))) = analytic {
+                r.t_max = t;
+                best = Some(Hit {
+                    t,
+                    geom,
+                    prim: 0,
                     u,
                     v,
                 });
