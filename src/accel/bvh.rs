@@ -9,11 +9,26 @@
 //! with SSE. Leaves are contiguous ranges of *slots*; `primitive_indices`
 //! maps a slot to the caller's primitive, and the caller stores its
 //! primitives in slot order so a leaf reads memory sequentially.
+//! `BuildSettings::align` starts every leaf on a multiple of `align` slots
+//! and pads it to one, so a caller can store primitives in SIMD packs (the
+//! native backend tests four triangles at once); the SAH then counts leaf
+//! cost in packs. Presets (`BuildQuality`): Fast = 8 bins, leaves up to 8;
+//! Balanced = 16 bins, up to 6 (8 when packed by 4); High = 48 bins, up to 4.
+//!
+//! The 4-wide tree is what the binary SAH tree becomes: a flattened array
+//! of 128-byte nodes (two cache lines; six SoA bound rows, child indices,
+//! leaf counts) in depth-first order, leaves first within a node. On the
+//! Stanford bunny (69,451 triangles, packed by 4) that is 6.5k nodes
+//! (815 KiB) at depth 9, against about 35k nodes for a binary tree.
 //!
 //! Traversal: reciprocal direction precomputed, near/far planes chosen once
 //! per ray by the direction's signs, children visited nearest first with a
-//! small fixed stack, `t_max` shrinking as hits are found; the any-hit query
-//! for shadow rays stops at the first hit.
+//! small fixed stack (no allocation, no initialisation), `t_max` shrinking
+//! as hits are found and stacked subtrees beyond it skipped, pushed nodes
+//! prefetched; the any-hit query for shadow rays stops at the first hit.
+//! Callers get both a per-primitive API (`intersect_with`, `occluded`) and a
+//! per-leaf one (`intersect_leaves`, `occluded_leaves`), the latter also
+//! with a `TravRay` prepared once and shared between trees.
 //!
 //! Robustness: slabs are computed as `(plane - origin) * (1 / dir)`, whose
 //! far distance is widened by `1 + 2 gamma(3)` (pbrt-v4), so rounding never
