@@ -221,11 +221,23 @@ fn print_rays(scene: &Arc<Scene>, what: &str) {
     }
     for name in [
         "dragon/dragon_vrip.ply",
+        "dragon/dragon_vrip_res2.ply.gz",
+        "dragon/dragon_vrip_res3.ply",
         "lucy/lucy.ply",
         "armadillo/armadillo.obj",
     ] {
         let path = assets().join("stanford").join(name);
-        if let Ok(m) = luz::scene::mesh_io::load_mesh(&path) {
+        if !path.exists() {
+            continue;
+        }
+        let m = match luz::scene::mesh_io::load_mesh(&path) {
+            Ok(m) => m,
+            Err(e) => {
+                println!("{name}: {e}");
+                continue;
+            }
+        };
+        {
             let boxes = triangle_boxes(&m);
             let t = Instant::now();
             let bvh = Bvh::build(&boxes, BuildQuality::Balanced);
@@ -248,6 +260,13 @@ fn print_rays(scene: &Arc<Scene>, what: &str) {
         BuildQuality::High,
     ] {
         let b = NativeBackend::with_quality(scene.clone(), q);
+        println!(
+            "{what} scene {q:?}: triangle BVH {} nodes ({} KiB), {} slots, depth {}",
+            b.bvh().node_count(),
+            b.bvh().node_count() * 128 / 1024,
+            b.bvh().primitive_indices().len(),
+            b.bvh().depth()
+        );
         let (c, hits) = mrays(closest.len(), || {
             closest.iter().filter(|r| b.intersect(r).is_some()).count()
         });

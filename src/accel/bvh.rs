@@ -9,11 +9,26 @@
 //! with SSE. Leaves are contiguous ranges of *slots*; `primitive_indices`
 //! maps a slot to the caller's primitive, and the caller stores its
 //! primitives in slot order so a leaf reads memory sequentially.
+//! `BuildSettings::align` starts every leaf on a multiple of `align` slots
+//! and pads it to one, so a caller can store primitives in SIMD packs (the
+//! native backend tests four triangles at once); the SAH then counts leaf
+//! cost in packs. Presets (`BuildQuality`): Fast = 8 bins, leaves up to 8;
+//! Balanced = 16 bins, up to 6 (8 when packed by 4); High = 48 bins, up to 4.
+//!
+//! The 4-wide tree is what the binary SAH tree becomes: a flattened array
+//! of 128-byte nodes (two cache lines; six SoA bound rows, child indices,
+//! leaf counts) in depth-first order, leaves first within a node. On the
+//! Stanford bunny (69,451 triangles, packed by 4) that is 6.5k nodes
+//! (815 KiB) at depth 9, against about 35k nodes for a binary tree.
 //!
 //! Traversal: reciprocal direction precomputed, near/far planes chosen once
 //! per ray by the direction's signs, children visited nearest first with a
-//! small fixed stack, `t_max` shrinking as hits are found; the any-hit query
-//! for shadow rays stops at the first hit.
+//! small fixed stack (no allocation, no initialisation), `t_max` shrinking
+//! as hits are found and stacked subtrees beyond it skipped, pushed nodes
+//! prefetched; the any-hit query for shadow rays stops at the first hit.
+//! Callers get both a per-primitive API (`intersect_with`, `occluded`) and a
+//! per-leaf one (`intersect_leaves`, `occluded_leaves`), the latter also
+//! with a `TravRay` prepared once and shared between trees.
 //!
 //! Robustness: slabs are computed as `(plane - origin) * (1 / dir)`, whose
 //! far distance is widened by `1 + 2 gamma(3)` (pbrt-v4), so rounding never
@@ -470,6 +485,23 @@ impl Bvh {
         }
     }
 
+    /// Starts loading an inner node that traversal will visit later.
+    #[inline(always)]
+    fn prefetch(&self, e: &Entry) {
+        #[cfg(target_arch = "x86_64")]
+        if e.count == 0 {
+            use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+            let p = self.nodes.as_ptr().wrapping_add(e.node as usize) as *const i8;
+            // SAFETY: a prefetch never faults, whatever the address.
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(p);
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64));
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = e;
+    }
+
     /// Original primitive index of every slot, in slot order.
     pub fn primitive_indices(&self) -> &[u32] {
         &self.order
@@ -579,19 +611,31 @@ impl Bvh {
                         };
                         continue;
                     }
-                    // Several: sort by entry distance (at most four), push
-                    // the farther ones, descend into the nearest.
+                    let entry = |k: usize| Entry {
+                        node: node.child[k],
+                        count: node.count[k],
+                        t: t0[k],
+                    };
+                    let m1 = mask & (mask - 1);
+                    if m1 & (m1 - 1) == 0 {
+                        // Two, the common case: push the farther one.
+                        let a = entry(mask.trailing_zeros() as usize);
+                        let b = entry(m1.trailing_zeros() as usize);
+                        let (near, far) = if b.t < a.t { (b, a) } else { (a, b) };
+                        self.prefetch(&far);
+                        stack.push(far);
+                        cur = near;
+                        continue;
+                    }
+                    // Three or four: sort by entry distance, push the
+                    // farther ones, descend into the nearest.
                     let mut hits = [cur; 4];
                     let mut n = 0;
                     let mut m = mask;
                     while m != 0 {
                         let k = m.trailing_zeros() as usize;
                         m &= m - 1;
-                        let e = Entry {
-                            node: node.child[k],
-                            count: node.count[k],
-                            t: t0[k],
-                        };
+                        let e = entry(k);
                         // Insertion sort, farthest first.
                         let mut j = n;
                         while j > 0 && hits[j - 1].t < e.t {
@@ -602,6 +646,7 @@ impl Bvh {
                         n += 1;
                     }
                     for e in &hits[..n - 1] {
+                        self.prefetch(e);
                         stack.push(*e);
                     }
                     cur = hits[n - 1];
@@ -668,11 +713,13 @@ impl Bvh {
                     while mask != 0 {
                         let j = mask.trailing_zeros() as usize;
                         mask &= mask - 1;
-                        stack.push(Entry {
+                        let e = Entry {
                             node: node.child[j],
                             count: node.count[j],
                             t: 0.0,
-                        });
+                        };
+                        self.prefetch(&e);
+                        stack.push(e);
                     }
                     cur = Entry {
                         node: node.child[k],
@@ -836,7 +883,7 @@ impl BuildCtx<'_> {
         let mut right_area = [0.0f32; 64];
         let mut right_count = [0u32; 64];
         for axis in 0..3 {
-            if !(ext[axis] > 0.0) {
+            if ext[axis].is_nan() || ext[axis] <= 0.0 {
                 continue;
             }
             let bins = &bins[axis];
@@ -1066,11 +1113,20 @@ mod tests {
 
     /// Closest hit and any hit agree with brute force on every ray.
     fn check(tris: &[Tri], rays: &[Ray], quality: BuildQuality) -> usize {
+        let expected: Vec<_> = rays.iter().map(|r| brute(tris, r)).collect();
+        check_against(tris, rays, &expected, quality)
+    }
+
+    fn check_against(
+        tris: &[Tri],
+        rays: &[Ray],
+        expected: &[Option<(f32, u32)>],
+        quality: BuildQuality,
+    ) -> usize {
         let bvh = Bvh::build(&boxes_of(tris), quality);
         assert!(bvh.depth() <= MAX_DEPTH);
         let mut hits = 0;
-        for ray in rays {
-            let e = brute(tris, ray);
+        for (ray, &e) in rays.iter().zip(expected) {
             let g = closest(&bvh, tris, ray);
             match (e, g) {
                 (Some(e), Some(g)) => {
@@ -1101,6 +1157,43 @@ mod tests {
         ] {
             let hits = check(&tris, &rays, q);
             assert!(hits > 10_000 && hits < 90_000, "{hits} hits");
+        }
+    }
+
+    /// 4-aligned leaves: every real primitive has exactly one slot, leaves
+    /// start on multiples of four, and leaf-level traversal never hands out
+    /// a padding slot; results still match brute force.
+    #[test]
+    fn aligned_leaves_pad_and_match_brute_force() {
+        let mut rng = Rng::new(10, 1);
+        let tris = soup(&mut rng, 2000, 1.0, 0.08);
+        let settings = BuildSettings {
+            align: 4,
+            ..BuildSettings::default()
+        };
+        let bvh = Bvh::build_with(&boxes_of(&tris), &settings);
+        let order = bvh.primitive_indices();
+        assert_eq!(order.len() % 4, 0);
+        let mut real: Vec<u32> = order.iter().copied().filter(|&i| i != PADDING).collect();
+        real.sort_unstable();
+        assert!(real.iter().enumerate().all(|(i, &p)| i as u32 == p));
+        for _ in 0..20_000 {
+            let ray = random_ray(&mut rng, 1.0);
+            let got = bvh.intersect_leaves(&ray, |first, count, r| {
+                assert_eq!(first % 4, 0);
+                let mut r = *r;
+                let mut best = None;
+                for slot in first..first + count {
+                    let i = order[slot as usize];
+                    assert_ne!(i, PADDING);
+                    if let Some(t) = isect(&tris[i as usize], &r) {
+                        r.t_max = t;
+                        best = Some((t, i));
+                    }
+                }
+                best
+            });
+            assert_eq!(got.map(|g| g.0), brute(&tris, &ray).map(|e| e.0), "{ray:?}");
         }
     }
 
