@@ -94,8 +94,8 @@ def main():
     mi.render(loaded, spp=1)  # warm-up: JIT compilation
     start = time.perf_counter()
     image = mi.render(loaded, seed=0)
-    dr.eval(image)
-    dr.sync_thread()
+    # Dr.Jit evaluates lazily: reading a value back waits for the render.
+    float(dr.sum(image.array)[0])
     elapsed = time.perf_counter() - start
     print(f"{args.scene} {args.variant} {args.spp} spp: {elapsed:.3f} s")
     if args.output:

@@ -29,6 +29,7 @@ pub mod bvh;
 #[cfg(luz_embree)]
 pub mod embree;
 pub mod native;
+mod planes;
 
 use crate::scene::Scene;
 use native::NativeBackend;

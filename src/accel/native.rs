@@ -19,6 +19,7 @@
 
 use super::bvh::f4::F4;
 use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
+use super::planes::InfinitePlanes;
 use super::{Backend, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::{Geometry, Scene};
@@ -142,7 +143,7 @@ pub struct NativeBackend {
     /// Over analytic shapes; `analytic[slot]` is the shape.
     analytic_bvh: Bvh,
     analytic: Vec<u32>,
-    planes: Vec<u32>,
+    planes: InfinitePlanes,
 }
 
 impl NativeBackend {
@@ -155,11 +156,10 @@ impl NativeBackend {
         let mut tris = Vec::new();
         let mut boxes = Vec::new();
         let mut shapes = Vec::new();
-        let mut planes = Vec::new();
         for (geom, shape) in scene.shapes.iter().enumerate() {
             let geom = geom as u32;
             match &shape.geometry {
-                Geometry::Plane(_) => planes.push(geom),
+                Geometry::Plane(_) => {}
                 Geometry::Mesh(m) => {
                     for prim in 0..m.triangle_count() as u32 {
                         let [p0, p1, p2] = m.vertices(prim);
@@ -210,12 +210,12 @@ impl NativeBackend {
             .map(|&i| shapes[i as usize])
             .collect();
         Self {
+            planes: InfinitePlanes::of(&scene.shapes),
             scene,
             tri_bvh,
             packs,
             analytic_bvh,
             analytic,
-            planes,
         }
     }
 
@@ -305,29 +305,13 @@ impl Backend for NativeBackend {
                 });
             }
         }
-        for &geom in &self.planes {
-            if let Some(h) = shapes[geom as usize].geometry.intersect(0, &r) {
-                r.t_max = h.t;
-                best = Some(Hit {
-                    t: h.t,
-                    geom,
-                    prim: 0,
-                    u: h.u,
-                    v: h.v,
-                });
-            }
-        }
-        best
+        self.planes.closest(shapes, &r, best)
     }
 
     #[inline]
     fn occluded(&self, ray: &Ray) -> bool {
         let shapes = &self.scene.shapes;
-        if self
-            .planes
-            .iter()
-            .any(|&g| shapes[g as usize].geometry.intersect(0, ray).is_some())
-        {
+        if self.planes.any_hit(shapes, ray) {
             return true;
         }
         let Some(tr) = TravRay::new(ray) else {

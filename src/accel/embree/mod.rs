@@ -22,6 +22,7 @@
 mod sys3;
 
 use self::sys3 as sys;
+use super::planes::InfinitePlanes;
 use super::{AccelError, Backend, BuildOptions, EmbreeQuality, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::shape::PrimHit;
@@ -33,7 +34,7 @@ pub struct EmbreeBackend {
     // `scene`'s shapes) goes first, the shapes last.
     rtc: sys::Scene,
     device: sys::Device,
-    planes: Vec<u32>,
+    planes: InfinitePlanes,
     scene: Arc<Scene>,
 }
 
@@ -87,17 +88,13 @@ impl EmbreeBackend {
         let rtc = device
             .new_scene(quality, options.embree_robust)
             .map_err(embree_error)?;
-        let mut planes = Vec::new();
         for (id, shape) in scene.shapes.iter().enumerate() {
             let id = u32::try_from(id)
                 .ok()
                 .filter(|&i| i != u32::MAX)
                 .ok_or_else(|| AccelError::Embree("more shapes than Embree has ids".into()))?;
             let geom = match &shape.geometry {
-                Geometry::Plane(_) => {
-                    planes.push(id);
-                    continue;
-                }
+                Geometry::Plane(_) => continue,
                 Geometry::Mesh(m) => {
                     if m.indices.is_empty() {
                         continue;
@@ -134,7 +131,7 @@ impl EmbreeBackend {
         Ok(Self {
             rtc,
             device,
-            planes,
+            planes: InfinitePlanes::of(&scene.shapes),
             scene,
         })
     }
@@ -167,29 +164,14 @@ impl Backend for EmbreeBackend {
         if !traceable(ray) {
             return None;
         }
-        let mut best = self.rtc.intersect(ray).map(|h| Hit {
+        let best = self.rtc.intersect(ray).map(|h| Hit {
             t: h.t,
             geom: h.geom,
             prim: h.prim,
             u: h.u,
             v: h.v,
         });
-        for &geom in &self.planes {
-            let mut r = *ray;
-            if let Some(b) = &best {
-                r.t_max = b.t;
-            }
-            if let Some(h) = self.scene.shapes[geom as usize].geometry.intersect(0, &r) {
-                best = Some(Hit {
-                    t: h.t,
-                    geom,
-                    prim: 0,
-                    u: h.u,
-                    v: h.v,
-                });
-            }
-        }
-        best
+        self.planes.closest(&self.scene.shapes, ray, best)
     }
 
     #[inline]
@@ -197,12 +179,7 @@ impl Backend for EmbreeBackend {
         if !traceable(ray) {
             return false;
         }
-        self.planes.iter().any(|&g| {
-            self.scene.shapes[g as usize]
-                .geometry
-                .intersect(0, ray)
-                .is_some()
-        }) || self.rtc.occluded(ray)
+        self.planes.any_hit(&self.scene.shapes, ray) || self.rtc.occluded(ray)
     }
 }
 
