@@ -6,8 +6,7 @@
 //! `cargo bench --bench traversal -- rays` prints Mrays/s and build times
 //! once; `RAYON_NUM_THREADS=2 cargo bench --bench traversal -- render` times
 //! the render. The bunny comes from `$LUZ_ASSETS` (default
-//! /work/shared/assets); without it a tessellated sphere of similar size
-//! stands in.
+//! `../shared/assets`); without it the benchmark says so and skips.
 
 use criterion::{black_box, Criterion, Throughput};
 use luz::accel::bvh::{BuildQuality, Bvh};
@@ -16,7 +15,7 @@ use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
 use luz::math::{Aabb, Ray, Vec3};
 use luz::sampling::{uniform_sphere, Rng};
 use luz::scene::shape::Mesh;
-use luz::scene::{Geometry, Scene, Shape};
+use luz::scene::{Geometry, Scene};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
@@ -24,92 +23,19 @@ use std::time::Instant;
 fn assets() -> PathBuf {
     std::env::var_os("LUZ_ASSETS")
         .map(PathBuf::from)
-        .unwrap_or_else(|| PathBuf::from("/work/shared/assets"))
+        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets"))
 }
 
-fn load_obj(path: &Path) -> Option<Mesh> {
-    let (models, _) = tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).ok()?;
-    let mut mesh = Mesh::default();
-    for m in models {
-        let base = mesh.positions.len() as u32;
-        let p = &m.mesh.positions;
-        mesh.positions
-            .extend(p.chunks(3).map(|c| Vec3::new(c[0], c[1], c[2])));
-        mesh.indices.extend(
-            m.mesh
-                .indices
-                .chunks(3)
-                .map(|c| [base + c[0], base + c[1], base + c[2]]),
-        );
-    }
-    Some(mesh)
-}
-
-/// A UV sphere of about `n` triangles.
-fn sphere(n: usize, center: Vec3, radius: f32) -> Mesh {
-    let rings = ((n / 2) as f32).sqrt() as u32;
-    let segs = rings;
-    let mut mesh = Mesh::default();
-    for i in 0..=rings {
-        let th = std::f32::consts::PI * i as f32 / rings as f32;
-        for j in 0..segs {
-            let ph = 2.0 * std::f32::consts::PI * j as f32 / segs as f32;
-            mesh.positions.push(
-                center + radius * Vec3::new(th.sin() * ph.cos(), th.cos(), th.sin() * ph.sin()),
-            );
-        }
-    }
-    for i in 0..rings {
-        for j in 0..segs {
-            let a = i * segs + j;
-            let b = i * segs + (j + 1) % segs;
-            mesh.indices.push([a, b, a + segs]);
-            mesh.indices.push([b, b + segs, a + segs]);
-        }
-    }
-    mesh
-}
-
-/// The bunny scene of scenes/bunny.toml, with the mesh loaded here (so the
-/// benchmark does not depend on the PLY loader).
-fn bunny_scene() -> (Scene, &'static str) {
+/// The bunny scene of scenes/bunny.toml; `None` (the benchmark skips) when
+/// `$LUZ_ASSETS` lacks the bunny.
+fn bunny_scene() -> Option<Scene> {
     if std::env::var_os("LUZ_ASSETS").is_none() {
         std::env::set_var("LUZ_ASSETS", assets());
     }
-    if let Ok(scene) = luz::scene::load(Path::new("scenes/bunny.toml")) {
-        return (scene, "bunny");
-    }
-    let text = std::fs::read_to_string("scenes/bunny.toml").expect("run from the crate root");
-    let cut = text
-        .find("[[shapes]] # p'")
-        .expect("bunny.toml's mesh shape");
-    let mut scene =
-        luz::scene::load_str(&text[..cut], Path::new("scenes/bunny.toml")).expect("bunny.toml");
-    let white = scene.shapes[0].material;
-    let (mesh, what) = match load_obj(&assets().join("stanford/bunny/stanford-bunny.obj")) {
-        Some(mut m) => {
-            m.transform(
-                &(luz::math::Mat4::from_translation(Vec3::new(0.1178828, -0.2309118, 0.01075865))
-                    * luz::math::Mat4::from_scale(Vec3::splat(7.0))),
-            );
-            (m, "bunny")
-        }
-        None => (sphere(70_000, Vec3::new(0.0, 0.6, 0.0), 0.5), "sphere"),
-    };
-    scene.shapes.push(Shape::new(Geometry::Mesh(mesh), white));
-    let s = scene;
-    (
-        Scene::new(
-            s.camera,
-            s.materials,
-            s.textures,
-            s.shapes,
-            s.point_lights,
-            s.environment,
-            s.render,
-        ),
-        what,
-    )
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/bunny.toml");
+    luz::scene::load(&path)
+        .map_err(|e| eprintln!("skipped: {e}"))
+        .ok()
 }
 
 fn triangle_boxes(mesh: &Mesh) -> Vec<Aabb> {
@@ -344,7 +270,10 @@ fn criterion_groups(scene: &Arc<Scene>) {
 
 fn main() {
     let args: Vec<String> = std::env::args().collect();
-    let (scene, what) = bunny_scene();
+    let Some(scene) = bunny_scene() else {
+        return;
+    };
+    let what = "bunny";
     if args.iter().any(|a| a == "render") {
         render(scene, what);
     } else if args.iter().any(|a| a == "rays") {
