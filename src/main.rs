@@ -175,10 +175,7 @@ fn main() -> ExitCode {
             rel_tol,
             fail_above,
         } => compare(&a, &b, abs_tol, rel_tol, fail_above),
-        Command::Info => {
-            info();
-            Ok(())
-        }
+        Command::Info => info(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -301,7 +298,7 @@ fn compare(
     let image_b = imageio::read(b).map_err(Failure::input)?;
     let comparison =
         metrics::compare(&image_a, &image_b, abs_tol, rel_tol).map_err(Failure::input)?;
-    println!("{comparison}");
+    print_stdout(&format!("{comparison}\n"))?;
     match fail_above {
         Some(limit) if comparison.rmse.is_nan() || comparison.rmse > limit => {
             Err(Failure::other(format!(
@@ -313,15 +310,28 @@ fn compare(
     }
 }
 
-fn info() {
-    println!("luz {}", env!("CARGO_PKG_VERSION"));
-    println!("backends: {}", luz::accel::compiled_backends().join(", "));
-    match luz::accel::embree_version() {
-        Some(v) => println!("embree: {v}"),
-        None => println!("embree: not compiled in (install libembree-dev and rebuild)"),
+/// Writes to stdout; a reader that went away (`luz info | head`) is not an
+/// error worth a message, let alone a panic.
+fn print_stdout(text: &str) -> Result<(), Failure> {
+    use std::io::Write;
+    match std::io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(Failure::other(e)),
+        _ => Ok(()),
     }
-    println!("threads: {}", rayon::current_num_threads());
-    println!("cpu features: {}", cpu_features().join(" "));
+}
+
+fn info() -> Result<(), Failure> {
+    let embree = match luz::accel::embree_version() {
+        Some(v) => v,
+        None => "not compiled in (install libembree-dev and rebuild)".into(),
+    };
+    print_stdout(&format!(
+        "luz {}\nbackends: {}\nembree: {embree}\nthreads: {}\ncpu features: {}\n",
+        env!("CARGO_PKG_VERSION"),
+        luz::accel::compiled_backends().join(", "),
+        rayon::current_num_threads(),
+        cpu_features().join(" ")
+    ))
 }
 
 fn cpu_features() -> Vec<&'static str> {

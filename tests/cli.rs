@@ -201,3 +201,29 @@ fn info_lists_backends() {
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("backends: rust"), "{stdout}");
 }
+
+#[test]
+fn embree_backend_without_embree_says_what_to_install() {
+    let info = String::from_utf8_lossy(&luz(&["info"]).stdout).into_owned();
+    let dir = temp_dir("embree");
+    let scene = dir.join("good.toml");
+    std::fs::write(&scene, GOOD).unwrap();
+    let out_file = dir.join("good.exr");
+    let out = luz(&[
+        "render",
+        scene.to_str().unwrap(),
+        "-o",
+        out_file.to_str().unwrap(),
+        "--backend",
+        "embree",
+        "--quiet",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    if info.contains("backends: rust, embree") {
+        assert!(out.status.success(), "{stderr}");
+    } else {
+        assert_eq!(out.status.code(), Some(2), "{stderr}");
+        assert!(stderr.contains("apt-get install libembree-dev"), "{stderr}");
+        assert!(!out_file.exists());
+    }
+}

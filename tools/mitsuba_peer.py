@@ -93,7 +93,8 @@ def main():
     loaded = mi.load_dict(scene(args.scene, args.assets, args.spp))
     mi.render(loaded, spp=1)  # warm-up: JIT compilation
     start = time.perf_counter()
-    image = mi.render(loaded, seed=0)
+    # spp given again: the warm-up's spp=1 sticks to the sampler otherwise.
+    image = mi.render(loaded, seed=0, spp=args.spp)
     # Dr.Jit evaluates lazily: reading a value back waits for the render.
     float(dr.sum(image.array)[0])
     elapsed = time.perf_counter() - start
