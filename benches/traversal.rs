@@ -82,22 +82,25 @@ fn cpu_time(start: Instant) -> f64 {
 /// Rays as a path tracer casts them: camera rays (one per pixel of a
 /// 512x512 image), then two diffuse bounces, with a shadow ray towards the
 /// light's middle from every hit.
-fn render_rays(scene: &Scene) -> (Vec<Ray>, Vec<Ray>) {
+fn render_rays(scene: &Scene) -> RaySets {
     use luz::math::{spawn_ray, spawn_ray_to, Frame};
     let b = NativeBackend::new(Arc::new(scene.clone()));
     let cam = &scene.camera;
     let basis = cam.basis();
     let mut rng = Rng::new(5, 6);
     let light = Vec3::new(0.0, 1.98, 0.0);
-    let mut closest = Vec::new();
-    let mut shadow = Vec::new();
+    let (mut camera, mut bounce, mut shadow) = (Vec::new(), Vec::new(), Vec::new());
     for y in 0..512 {
         for x in 0..512 {
             let px =
                 luz::math::Vec2::new(x as f32, y as f32) * cam.width as f32 / 512.0 + rng.next_2d();
             let mut ray = cam.ray(&basis, px);
-            for _ in 0..3 {
-                closest.push(ray);
+            for depth in 0..3 {
+                if depth == 0 {
+                    camera.push(ray);
+                } else {
+                    bounce.push(ray);
+                }
                 let Some(hit) = b.intersect(&ray) else { break };
                 let sp = scene.surface(&ray, &hit);
                 let n = if sp.n.dot(ray.dir) < 0.0 { sp.n } else { -sp.n };
@@ -108,7 +111,56 @@ fn render_rays(scene: &Scene) -> (Vec<Ray>, Vec<Ray>) {
             }
         }
     }
-    (closest, shadow)
+    RaySets {
+        camera,
+        bounce,
+        shadow,
+    }
+}
+
+/// The rays of `render_rays`, by kind.
+struct RaySets {
+    camera: Vec<Ray>,
+    bounce: Vec<Ray>,
+    shadow: Vec<Ray>,
+}
+
+/// Mrays/s of every compiled backend on each ray kind, on one thread (per
+/// CPU-second) and on all threads (wall time).
+fn print_backend_rays(scene: &Arc<Scene>, sets: &RaySets) {
+    use rayon::prelude::*;
+    for name in luz::accel::compiled_backends() {
+        let kind: BackendKind = name.parse().expect("compiled backends parse");
+        let start = Instant::now();
+        let accel = Accel::build(scene, kind, &BuildOptions::default()).expect("builds");
+        let build_ms = start.elapsed().as_secs_f64() * 1e3;
+        let mut line = format!("{name} (build {build_ms:.1} ms):");
+        for (what, rays, shadow) in [
+            ("camera", &sets.camera, false),
+            ("bounce", &sets.bounce, false),
+            ("shadow", &sets.shadow, true),
+        ] {
+            let trace = |r: &Ray| {
+                if shadow {
+                    accel.occluded(r)
+                } else {
+                    accel.intersect(r).is_some()
+                }
+            };
+            let (one, _) = mrays(rays.len(), || rays.iter().filter(|r| trace(r)).count());
+            let start = Instant::now();
+            let reps = 3;
+            for _ in 0..reps {
+                black_box(rays.par_iter().filter(|r| trace(r)).count());
+            }
+            let all = (rays.len() * reps) as f64 / start.elapsed().as_secs_f64() / 1e6;
+            line += &format!(
+                " {what} {one:.2} Mrays/s (1 thread), {all:.2} ({} threads);",
+                rayon::current_num_threads()
+            );
+        }
+        println!("{line}");
+    }
 }
 
 fn mrays(n: usize, f: impl Fn() -> usize) -> (f64, usize) {
@@ -174,11 +226,29 @@ fn print_rays(scene: &Arc<Scene>, what: &str) {
                 bvh.node_count()
             );
         }
+        // The whole backend, in the bunny's place.
+        let mut with_mesh = (**scene).clone();
+        with_mesh.shapes.last_mut().expect("the bunny").geometry = Geometry::Mesh(m);
+        let with_mesh = Arc::new(with_mesh);
+        for backend in luz::accel::compiled_backends() {
+            let kind: BackendKind = backend.parse().expect("compiled backends parse");
+            let t = Instant::now();
+            let accel = Accel::build(&with_mesh, kind, &BuildOptions::default()).expect("builds");
+            println!(
+                "backend {backend} on {name}: built in {:.1} ms",
+                t.elapsed().as_secs_f64() * 1e3
+            );
+            drop(accel);
+        }
     }
     let (closest, shadow) = if std::env::args().any(|a| a == "box") {
         rays(1 << 20)
     } else {
-        render_rays(scene)
+        let sets = render_rays(scene);
+        print_backend_rays(scene, &sets);
+        let mut closest = sets.camera;
+        closest.extend(sets.bounce);
+        (closest, sets.shadow)
     };
     for q in [
         BuildQuality::Fast,
