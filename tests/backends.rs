@@ -5,7 +5,7 @@ use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Hit};
 use luz::math::{Ray, Vec3};
 use luz::sampling::{uniform_sphere, Rng};
 use luz::scene::shape::{Cuboid, Mesh, Plane, Quad, Sphere};
-use luz::scene::{Camera, Geometry, Material, RenderSettings, Scene, Shape};
+use luz::scene::{Geometry, Material, RenderSettings, Scene, Shape};
 use std::sync::Arc;
 
 fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
@@ -55,23 +55,7 @@ fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
         Vec3::new(0.0, -1.5 * scale, 0.0),
         Vec3::new(0.1, 1.0, -0.2),
     )));
-    let camera = Camera {
-        eye: Vec3::Z,
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        fov_y: 40.0,
-        width: 1,
-        height: 1,
-    };
-    Arc::new(Scene::new(
-        camera,
-        vec![Material::default()],
-        vec![],
-        shapes.into_iter().map(|g| Shape::new(g, 0)).collect(),
-        vec![],
-        None,
-        RenderSettings::default(),
-    ))
+    Arc::new(Scene::of_geometry(shapes))
 }
 
 fn brute_force(scene: &Scene, ray: &Ray) -> Option<Hit> {

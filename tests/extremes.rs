@@ -10,7 +10,7 @@ use luz::math::{spawn_ray, Ray, Vec3};
 use luz::render::{render_with, Film, RenderOptions};
 use luz::sampling::{uniform_sphere, Rng};
 use luz::scene::shape::{Mesh, Quad, Sphere};
-use luz::scene::{load_str, Camera, Geometry, Material, RenderSettings, Scene, Shape};
+use luz::scene::{load_str, Geometry, Scene};
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -81,23 +81,7 @@ fn print_table() {
 }
 
 fn scene_of(shapes: Vec<Geometry>) -> Arc<Scene> {
-    let camera = Camera {
-        eye: Vec3::Z,
-        target: Vec3::ZERO,
-        up: Vec3::Y,
-        fov_y: 40.0,
-        width: 1,
-        height: 1,
-    };
-    Arc::new(Scene::new(
-        camera,
-        vec![Material::default()],
-        vec![],
-        shapes.into_iter().map(|g| Shape::new(g, 0)).collect(),
-        vec![],
-        None,
-        RenderSettings::default(),
-    ))
+    Arc::new(Scene::of_geometry(shapes))
 }
 
 /// Glass-like re-intersection of spheres of radius 1e-4, 1, 1e4 and 1e6,

@@ -99,6 +99,28 @@ impl Scene {
         }
     }
 
+    /// Bare geometry for intersection work (tests, benchmarks, tools): one
+    /// default material, no lights, a 1×1 camera on +z looking at the origin.
+    pub fn of_geometry(geometry: impl IntoIterator<Item = Geometry>) -> Self {
+        let camera = Camera {
+            eye: Vec3::Z,
+            target: Vec3::ZERO,
+            up: Vec3::Y,
+            fov_y: 40.0,
+            width: 1,
+            height: 1,
+        };
+        Self::new(
+            camera,
+            vec![Material::default()],
+            vec![],
+            geometry.into_iter().map(|g| Shape::new(g, 0)).collect(),
+            vec![],
+            None,
+            RenderSettings::default(),
+        )
+    }
+
     /// The full surface point of a backend's preliminary hit.
     #[inline]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {

@@ -187,26 +187,9 @@ impl Backend for EmbreeBackend {
 mod tests {
     use super::*;
     use crate::scene::shape::{Mesh, Sphere};
-    use crate::scene::{Camera, Material, RenderSettings, Shape};
 
     fn scene_of(shapes: Vec<Geometry>) -> Arc<Scene> {
-        let camera = Camera {
-            eye: Vec3::Z,
-            target: Vec3::ZERO,
-            up: Vec3::Y,
-            fov_y: 40.0,
-            width: 1,
-            height: 1,
-        };
-        Arc::new(Scene::new(
-            camera,
-            vec![Material::default()],
-            vec![],
-            shapes.into_iter().map(|g| Shape::new(g, 0)).collect(),
-            vec![],
-            None,
-            RenderSettings::default(),
-        ))
+        Arc::new(Scene::of_geometry(shapes))
     }
 
     #[test]
