@@ -116,7 +116,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
 
             // Coefficients of the three lobes at this point.
             let kd = if material.texture.is_some() {
-                scene.albedo(hit.geom, &sp)
+                scene.albedo(&hit, &sp)
             } else {
                 material.kd
             };

@@ -141,11 +141,19 @@ impl Scene {
 
     /// Diffuse albedo at a surface point (texture applied).
     #[inline]
-    pub fn albedo(&self, geom: u32, sp: &SurfacePoint) -> Rgb {
-        let shape = &self.shapes[geom as usize];
+    pub fn albedo(&self, hit: &Hit, sp: &SurfacePoint) -> Rgb {
+        let shape = &self.shapes[hit.geom as usize];
         let m = &self.materials[shape.material as usize];
         match m.texture {
-            Some(t) => m.kd * self.textures[t as usize].eval(shape.uv_transform.apply(sp.uv)),
+            Some(t) => {
+                let prim_hit = PrimHit {
+                    t: hit.t,
+                    u: hit.u,
+                    v: hit.v,
+                };
+                let uv = shape.geometry.uv(hit.prim, &prim_hit, sp);
+                m.kd * self.textures[t as usize].eval(shape.uv_transform.apply(uv))
+            }
             None => m.kd,
         }
     }

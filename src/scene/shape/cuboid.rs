@@ -76,12 +76,24 @@ impl Cuboid {
         };
         let mut p_err = gamma(5) * (p.abs() + ray.origin.abs());
         p_err[axis] = 0.0;
+        SurfacePoint { p, p_err, n }
+    }
+
+    /// The position within the hit face, from its minimum corner.
+    pub fn uv(&self, sp: &SurfacePoint) -> Vec2 {
+        // The normal of a face is a unit axis.
+        let axis = if sp.n.x != 0.0 {
+            0
+        } else if sp.n.y != 0.0 {
+            1
+        } else {
+            2
+        };
         let (a, b) = ((axis + 1) % 3, (axis + 2) % 3);
-        let uv = Vec2::new(
-            (p[a] - self.min[a]) / (self.max[a] - self.min[a]),
-            (p[b] - self.min[b]) / (self.max[b] - self.min[b]),
-        );
-        SurfacePoint { p, p_err, n, uv }
+        Vec2::new(
+            (sp.p[a] - self.min[a]) / (self.max[a] - self.min[a]),
+            (sp.p[b] - self.min[b]) / (self.max[b] - self.min[b]),
+        )
     }
 
     /// Uniform point on the surface (faces chosen by area).
@@ -121,11 +133,6 @@ impl Cuboid {
         n[axis] = if positive { 1.0 } else { -1.0 };
         let mut p_err = gamma(3) * (p.abs() + self.min.abs());
         p_err[axis] = 0.0;
-        SurfacePoint {
-            p,
-            p_err,
-            n,
-            uv: Vec2::ZERO,
-        }
+        SurfacePoint { p, p_err, n }
     }
 }

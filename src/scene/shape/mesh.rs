@@ -58,18 +58,24 @@ impl Mesh {
         let (a, bb, c) = (b0 * p0, b.x * p1, b.y * p2);
         let p = a + bb + c;
         let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-        let uv = match &self.uvs {
-            Some(uvs) => {
-                let [i0, i1, i2] = self.indices[prim as usize];
-                b0 * uvs[i0 as usize] + b.x * uvs[i1 as usize] + b.y * uvs[i2 as usize]
-            }
-            None => b,
-        };
         SurfacePoint {
             p,
             p_err: gamma(7) * (a.abs() + bb.abs() + c.abs()),
             n,
-            uv,
+        }
+    }
+
+    /// Per-vertex uvs interpolated at the hit, else its barycentrics.
+    pub fn uv(&self, prim: u32, hit: &PrimHit) -> Vec2 {
+        let b = Vec2::new(hit.u, hit.v);
+        match &self.uvs {
+            Some(uvs) => {
+                let [i0, i1, i2] = self.indices[prim as usize];
+                (1.0 - b.x - b.y) * uvs[i0 as usize]
+                    + b.x * uvs[i1 as usize]
+                    + b.y * uvs[i2 as usize]
+            }
+            None => b,
         }
     }
 

@@ -33,8 +33,6 @@ pub struct SurfacePoint {
     pub p_err: Vec3,
     /// Unit geometric normal, on the shape's front side.
     pub n: Vec3,
-    /// Texture coordinates.
-    pub uv: Vec2,
 }
 
 /// Closed set of shapes (an enum, not a trait object, in the hot path).
@@ -85,6 +83,18 @@ impl Geometry {
             Geometry::Quad(q) => q.surface(ray, hit),
             Geometry::Cuboid(c) => c.surface(ray, hit),
             Geometry::Mesh(m) => m.surface(prim, hit),
+        }
+    }
+
+    /// Texture coordinates of a hit, asked for only by textured materials:
+    /// a scene without textures never pays for them.
+    pub fn uv(&self, prim: u32, hit: &PrimHit, sp: &SurfacePoint) -> Vec2 {
+        match self {
+            Geometry::Sphere(s) => s.uv(sp),
+            Geometry::Plane(p) => p.uv(sp),
+            Geometry::Quad(_) => Vec2::new(hit.u, hit.v),
+            Geometry::Cuboid(c) => c.uv(sp),
+            Geometry::Mesh(m) => m.uv(prim, hit),
         }
     }
 

@@ -39,13 +39,17 @@ impl Plane {
         let p = ray.at(hit.t);
         // Snap onto the plane so that the error is that of the projection.
         let p = p - (p - self.point).dot(self.normal) * self.normal;
-        let local = p - self.point;
         SurfacePoint {
             p,
             p_err: gamma(6) * (p.abs() + self.point.abs()),
             n: self.normal,
-            uv: Vec2::new(local.dot(self.frame.s), local.dot(self.frame.t)),
         }
+    }
+
+    /// Coordinates along the plane's tangent axes.
+    pub fn uv(&self, sp: &SurfacePoint) -> Vec2 {
+        let local = sp.p - self.point;
+        Vec2::new(local.dot(self.frame.s), local.dot(self.frame.t))
     }
 
     /// Tangent axes used for texture coordinates.

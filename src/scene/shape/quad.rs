@@ -87,7 +87,6 @@ impl Quad {
             p,
             p_err: gamma(7) * (a.abs() + b.abs() + c.abs()),
             n: self.normal,
-            uv,
         }
     }
 }

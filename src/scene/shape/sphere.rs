@@ -70,16 +70,17 @@ impl Sphere {
         // Re-project onto the surface: the error then only depends on |p|.
         let p = self.center + self.radius * n;
         let p_err = gamma(5) * (p.abs() + Vec3::splat(self.radius));
+        SurfacePoint { p, p_err, n }
+    }
+
+    /// Equirectangular coordinates of the normal's direction.
+    pub fn uv(&self, sp: &SurfacePoint) -> Vec2 {
+        let n = sp.n;
         let phi = n.z.atan2(n.x);
         let u = 0.5 + phi / (2.0 * PI);
         // v = 1 at the +y pole, so an equirectangular image stands upright.
         let v = 1.0 - n.y.clamp(-1.0, 1.0).acos() / PI;
-        SurfacePoint {
-            p,
-            p_err,
-            n,
-            uv: Vec2::new(u, v),
-        }
+        Vec2::new(u, v)
     }
 
     /// Samples a point on the sphere as seen from `from`; returns the point
@@ -139,7 +140,6 @@ impl Sphere {
             p,
             p_err: gamma(5) * (p.abs() + Vec3::splat(self.radius)),
             n,
-            uv: Vec2::ZERO,
         }
     }
 }
