@@ -159,7 +159,6 @@ pub struct Bvh {
     nodes: Vec<Node4>,
     /// Original primitive index of each slot.
     order: Vec<u32>,
-    bounds: Aabb,
     depth: usize,
 }
 
@@ -455,7 +454,6 @@ impl Bvh {
             return Bvh {
                 nodes: Vec::new(),
                 order,
-                bounds: Aabb::EMPTY,
                 depth: 0,
             };
         }
@@ -480,7 +478,6 @@ impl Bvh {
         Bvh {
             nodes: out.nodes,
             order: out.slots,
-            bounds,
             depth,
         }
     }
@@ -505,11 +502,6 @@ impl Bvh {
     /// Original primitive index of every slot, in slot order.
     pub fn primitive_indices(&self) -> &[u32] {
         &self.order
-    }
-
-    /// Bounds of everything in the tree (`Aabb::EMPTY` when empty).
-    pub fn bounds(&self) -> Aabb {
-        self.bounds
     }
 
     /// Number of 4-wide nodes.

@@ -224,11 +224,6 @@ impl NativeBackend {
         &self.tri_bvh
     }
 
-    /// The BVH over analytic shapes.
-    pub fn analytic_bvh(&self) -> &Bvh {
-        &self.analytic_bvh
-    }
-
     #[inline(always)]
     fn packs_of(&self, first: u32, count: u32) -> &[TriPack] {
         let (a, n) = (first as usize / 4, (count as usize).div_ceil(4));
