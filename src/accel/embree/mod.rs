@@ -24,7 +24,7 @@ mod sys3;
 use self::sys3 as sys;
 use super::planes::InfinitePlanes;
 use super::{AccelError, Backend, BuildOptions, EmbreeQuality, Hit};
-use crate::math::{Aabb, Ray, Vec3};
+use crate::math::{Aabb, Ray};
 use crate::scene::shape::PrimHit;
 use crate::scene::{Geometry, Scene};
 use std::sync::Arc;
@@ -56,19 +56,14 @@ impl sys::UserPrimitives for Geometry {
     }
 
     #[inline]
-    fn intersect(&self, prim: u32, ray: &Ray) -> Option<(PrimHit, Vec3)> {
-        let h = Geometry::intersect(self, prim, ray)?;
-        Some((h, self.surface(prim, ray, &h).n))
+    fn intersect(&self, prim: u32, ray: &Ray) -> Option<PrimHit> {
+        Geometry::intersect(self, prim, ray)
     }
 
     #[inline]
     fn occluded(&self, prim: u32, ray: &Ray) -> bool {
         Geometry::intersect(self, prim, ray).is_some()
     }
-}
-
-fn embree_error(e: String) -> AccelError {
-    AccelError::Embree(e)
 }
 
 impl EmbreeBackend {
@@ -83,11 +78,11 @@ impl EmbreeBackend {
         options: &BuildOptions,
         config: Option<&str>,
     ) -> Result<Self, AccelError> {
-        let device = sys::Device::new(config).map_err(embree_error)?;
+        let device = sys::Device::new(config).map_err(AccelError::Embree)?;
         let quality = sys::Quality::from(options.embree_quality);
         let rtc = device
             .new_scene(quality, options.embree_robust)
-            .map_err(embree_error)?;
+            .map_err(AccelError::Embree)?;
         for (id, shape) in scene.shapes.iter().enumerate() {
             let id = u32::try_from(id)
                 .ok()
@@ -124,10 +119,10 @@ impl EmbreeBackend {
                     unsafe { device.new_user(g as *const Geometry, 1) }
                 }
             }
-            .map_err(embree_error)?;
-            device.attach(&rtc, &geom, id).map_err(embree_error)?;
+            .map_err(AccelError::Embree)?;
+            device.attach(&rtc, &geom, id).map_err(AccelError::Embree)?;
         }
-        device.commit(&rtc).map_err(embree_error)?;
+        device.commit(&rtc).map_err(AccelError::Embree)?;
         Ok(Self {
             rtc,
             device,
@@ -186,6 +181,7 @@ impl Backend for EmbreeBackend {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::math::Vec3;
     use crate::scene::shape::{Mesh, Sphere};
 
     fn scene_of(shapes: Vec<Geometry>) -> Arc<Scene> {

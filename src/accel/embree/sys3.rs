@@ -641,8 +641,8 @@ impl Scene {
 pub trait UserPrimitives: Sync {
     /// Finite bounds of primitive `prim`.
     fn bounds(&self, prim: u32) -> Aabb;
-    /// Closest hit in `(ray.t_min, ray.t_max)`, with the geometric normal.
-    fn intersect(&self, prim: u32, ray: &Ray) -> Option<(PrimHit, Vec3)>;
+    /// Closest hit in `(ray.t_min, ray.t_max)`.
+    fn intersect(&self, prim: u32, ray: &Ray) -> Option<PrimHit>;
     /// Whether `prim` is hit in `(ray.t_min, ray.t_max)`.
     fn occluded(&self, prim: u32, ray: &Ray) -> bool;
 }
@@ -692,12 +692,15 @@ unsafe extern "C" fn intersect_fn<T: UserPrimitives>(args: *const RTCIntersectFu
             continue;
         }
         let r = unsafe { read_ray_n(ray, n, i) };
-        if let Some((h, ng)) = prims.intersect(args.primID, &r) {
+        if let Some(h) = prims.intersect(args.primID, &r) {
             unsafe {
                 *ray.add(8 * n + i) = h.t;
-                *hit.add(i) = ng.x;
-                *hit.add(n + i) = ng.y;
-                *hit.add(2 * n + i) = ng.z;
+                // Ng is left zero: nothing reads it (`Scene::intersect`
+                // returns no normal; luz rebuilds the surface from the hit),
+                // so computing one per candidate hit would be wasted work.
+                *hit.add(i) = 0.0;
+                *hit.add(n + i) = 0.0;
+                *hit.add(2 * n + i) = 0.0;
                 *hit.add(3 * n + i) = h.u;
                 *hit.add(4 * n + i) = h.v;
                 let ids = hit as *mut c_uint;
