@@ -124,14 +124,9 @@ impl Scene {
     /// The full surface point of a backend's preliminary hit.
     #[inline]
     pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
-        let prim_hit = PrimHit {
-            t: hit.t,
-            u: hit.u,
-            v: hit.v,
-        };
         self.shapes[hit.geom as usize]
             .geometry
-            .surface(hit.prim, ray, &prim_hit)
+            .surface(hit.prim, ray, &prim_hit(hit))
     }
 
     #[inline]
@@ -146,39 +141,20 @@ impl Scene {
         let m = &self.materials[shape.material as usize];
         match m.texture {
             Some(t) => {
-                let prim_hit = PrimHit {
-                    t: hit.t,
-                    u: hit.u,
-                    v: hit.v,
-                };
-                let uv = shape.geometry.uv(hit.prim, &prim_hit, sp);
+                let uv = shape.geometry.uv(hit.prim, &prim_hit(hit), sp);
                 m.kd * self.textures[t as usize].eval(shape.uv_transform.apply(uv))
             }
             None => m.kd,
         }
     }
+}
 
-    /// Total number of primitives over all shapes.
-    pub fn primitive_count(&self) -> usize {
-        self.shapes
-            .iter()
-            .map(|s| s.geometry.primitive_count())
-            .sum()
-    }
-
-    /// Centre and radius of a sphere bounding all finite geometry.
-    pub fn bounding_sphere(&self) -> (Vec3, f32) {
-        let mut b = crate::math::Aabb::EMPTY;
-        for s in &self.shapes {
-            for prim in 0..s.geometry.primitive_count() as u32 {
-                if let Some(pb) = s.geometry.primitive_bounds(prim) {
-                    b = b.union(pb);
-                }
-            }
-        }
-        if b.is_empty() {
-            return (Vec3::ZERO, 1.0);
-        }
-        (b.centroid(), 0.5 * b.extent().length())
+/// The shape-level part of a backend's hit.
+#[inline]
+fn prim_hit(hit: &Hit) -> PrimHit {
+    PrimHit {
+        t: hit.t,
+        u: hit.u,
+        v: hit.v,
     }
 }
