@@ -16,7 +16,7 @@ use std::io::IsTerminal;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -362,9 +362,15 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     };
     let resumed_samples = film.samples;
 
+    // The first SIGINT or SIGTERM stops the render after the pass in flight;
+    // a second one ends the process at once, for a user who cannot wait.
     let signal = Arc::new(AtomicUsize::new(0));
+    let signalled = Arc::new(AtomicBool::new(false));
     for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        signal_hook::flag::register_usize(sig, Arc::clone(&signal), sig as usize)
+        use signal_hook::flag;
+        flag::register_conditional_shutdown(sig, 128 + sig, Arc::clone(&signalled))
+            .and_then(|_| flag::register(sig, Arc::clone(&signalled)))
+            .and_then(|_| flag::register_usize(sig, Arc::clone(&signal), sig as usize))
             .map_err(Failure::other)?;
     }
 
