@@ -193,6 +193,10 @@ fn bad_ranges_and_tasks_are_input_errors() {
     assert_eq!(out.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&out.stderr).contains("sample range 4..2 is empty"));
     assert!(!exr.exists());
+    let out = render(&exr, 8, &["--checkpoint-every", "5 minutes"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("expected a duration such as"));
+    assert!(!exr.exists());
 
     // The task index may come from Slurm or Kubernetes.
     let out = luz()

@@ -11,7 +11,7 @@
 #
 # Environment: LUZ (the luz binary; default: built with cargo in debug),
 # SCENE (scenes/cornell-area.toml), RESOLUTION (64x64), SPP (64), TASKS (4),
-# SLURM_PORTS (first of two free TCP ports; default 16817).
+# SLURM_PORTS (where to look for two free TCP ports; default 16817).
 set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 scene=${SCENE:-$repo/scenes/cornell-area.toml}
@@ -19,7 +19,6 @@ resolution=${RESOLUTION:-64x64}
 spp=${SPP:-64}
 tasks=${TASKS:-4}
 ctld_port=${SLURM_PORTS:-16817}
-slurmd_port=$((ctld_port + 1))
 
 say() { echo "test-local-cluster: $*" >&2; }
 
@@ -39,12 +38,14 @@ if [ -z "${LUZ:-}" ]; then
 fi
 export LUZ
 
-for port in "$ctld_port" "$slurmd_port"; do
-    if (exec 3<>"/dev/tcp/127.0.0.1/$port") 2>/dev/null; then
-        say "port $port is in use (set SLURM_PORTS to another pair)"
-        exit 1
-    fi
+# Another run (a second checkout's test.sh) may hold the ports: take the
+# first free pair.
+in_use() { (exec 3<>"/dev/tcp/127.0.0.1/$1") 2>/dev/null; }
+for _ in $(seq 50); do
+    in_use "$ctld_port" || in_use "$((ctld_port + 1))" || break
+    ctld_port=$((ctld_port + 2))
 done
+slurmd_port=$((ctld_port + 1))
 
 tmp=$(mktemp -d "${TMPDIR:-/tmp}/luz-slurm.XXXXXX")
 # munged refuses a socket directory others cannot enter.
