@@ -357,7 +357,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     };
     let (width, height) = (scene.camera.width, scene.camera.height);
     let mut film = match &args.resume {
-        Some(path) => resumed_film(path, &meta)?,
+        Some(path) => resumed_film(path, &meta, (width, height))?,
         None => Film::new(width, height),
     };
     let resumed_samples = film.samples;
@@ -528,12 +528,22 @@ fn sample_range(args: &RenderArgs, spp: u32) -> Result<Range<u32>, Failure> {
 }
 
 /// The film of a checkpoint, if it is of this very render.
-fn resumed_film(path: &Path, meta: &PartMeta) -> Result<Film, Failure> {
+fn resumed_film(path: &Path, meta: &PartMeta, resolution: (u32, u32)) -> Result<Film, Failure> {
     let saved = part::read(path).map_err(Failure::input)?;
     let refuse = |field: &str, message: String| {
         Failure::input(format!("{}: {field}: {message}", path.display()))
     };
     let (ours, theirs) = (meta, &saved.meta);
+    let saved_resolution = (saved.film.width, saved.film.height);
+    if saved_resolution != resolution {
+        return Err(refuse(
+            "dataWindow",
+            format!(
+                "the checkpoint is {}x{}, this render {}x{}",
+                saved_resolution.0, saved_resolution.1, resolution.0, resolution.1
+            ),
+        ));
+    }
     if theirs.scene_hash != ours.scene_hash {
         return Err(refuse(
             "luz:sceneHash",

@@ -312,6 +312,19 @@ fn a_checkpoint_of_another_render_is_refused() {
     let out = dir.join("out.exr");
     let args = ["--resume", seeded.to_str().unwrap()];
     assert_input_error(&render(&out, 4, &args), "luz:seed", &out);
+    let small = dir.join("small.exr");
+    ok(luz()
+        .args(["render", &scene(), "--resolution", "8x8", "--spp", "4"])
+        .args(["--samples", "0..2", "--quiet", "-o"])
+        .arg(&small)
+        .output()
+        .unwrap());
+    let args = ["--resume", small.to_str().unwrap()];
+    assert_input_error(
+        &render(&out, 4, &args),
+        "dataWindow: the checkpoint is 8x8",
+        &out,
+    );
     let other = dir.join("other.exr");
     ok(render(&other, 4, &["--samples", "1..2"]));
     let args = ["--resume", other.to_str().unwrap()];
