@@ -61,6 +61,9 @@ pub fn render_passes<E>(
         stats.samples += pass_stats.samples;
         let per_sample = pass_stats.wall.as_secs_f64() / (end as u64 - next) as f64;
         let fit = (pass_time.as_secs_f64() / per_sample.max(1e-9)) as u64;
+        // At most four times the last pass: a rate measured on a pass of a
+        // sample or two is rough, and an overlong pass delays the answer to
+        // a signal.
         pass = fit.clamp(1, pass * 4);
         after_pass(film)?;
     }
