@@ -17,5 +17,7 @@ export LUZ_ASSETS="${LUZ_ASSETS:-$PWD/../shared/assets}"
 
 echo "test.sh: tests with the Embree and native backends" >&2
 LUZ_REQUIRE_EMBREE=1 cargo test --all-targets
+echo "test.sh: a 4-task Slurm array render and merge on a local single-node Slurm" >&2
+deploy/slurm/test-local-cluster.sh
 echo "test.sh: tests of the native-only build (Embree hidden)" >&2
 LUZ_NO_EMBREE=1 cargo test --all-targets

@@ -7,12 +7,18 @@ use luz::accel::{Accel, Backend as _, BackendKind, BuildOptions, EmbreeQuality};
 use luz::image::io::{self as imageio, WriteOptions};
 use luz::image::metrics;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
-use luz::render::{render_with, Progress, RenderOptions};
+use luz::render::merge::merge;
+use luz::render::part::{self, Part, PartMeta};
+use luz::render::passes::{render_passes, Outcome};
+use luz::render::task::{self, Task};
+use luz::render::{Film, Progress, RenderOptions};
 use std::io::IsTerminal;
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 #[derive(Parser)]
 #[command(name = "luz", version, about = "A physically based path tracer")]
@@ -47,8 +53,29 @@ enum Command {
         #[arg(long)]
         fail_above: Option<f64>,
     },
+    /// Merge renders of disjoint sample ranges of one scene (EXR files that
+    /// `luz render` wrote) into the image of all their samples.
+    Merge(MergeArgs),
     /// Version, compiled backends and CPU features.
     Info,
+}
+
+#[derive(clap::Args)]
+struct MergeArgs {
+    /// EXR files written by `luz render`, in any order.
+    #[arg(required = true)]
+    parts: Vec<PathBuf>,
+    /// Output image; .exr keeps the sums so the result can be merged again.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Merge even when some sample ranges are in no part (and say which).
+    #[arg(long)]
+    allow_gaps: bool,
+    /// No summary line.
+    #[arg(long)]
+    quiet: bool,
+    #[command(flatten)]
+    tonemap: ToneMapArgs,
 }
 
 #[derive(clap::Args)]
@@ -86,8 +113,53 @@ struct RenderArgs {
     /// No progress bar and no summary line.
     #[arg(long)]
     quiet: bool,
+    /// Render only sample indices A to B-1 of every pixel (output: .exr).
+    #[arg(long, value_name = "A..B", value_parser = part::parse_range, conflicts_with = "task_index")]
+    samples: Option<Range<u32>>,
+    /// Render the I-th of --task-count equal shares of --spp (output: .exr).
+    /// Default: SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX when set.
+    #[arg(long, value_name = "I", requires = "task_count")]
+    task_index: Option<u32>,
+    /// Number of tasks sharing the samples (default with Slurm:
+    /// SLURM_ARRAY_TASK_COUNT).
+    #[arg(long, value_name = "N")]
+    task_count: Option<u32>,
+    /// Save the film this often (e.g. 30s, 5m, 1h; off: never).
+    #[arg(long, value_name = "DURATION", default_value = "1m", value_parser = parse_interval)]
+    checkpoint_every: Interval,
+    /// Checkpoint file. Default: the --resume file, else the output's name
+    /// with .checkpoint.exr.
+    #[arg(long, value_name = "FILE.exr")]
+    checkpoint: Option<PathBuf>,
+    /// Continue the render saved in this checkpoint.
+    #[arg(long, value_name = "CHECKPOINT")]
+    resume: Option<PathBuf>,
     #[command(flatten)]
     tonemap: ToneMapArgs,
+}
+
+/// How often to checkpoint; `None` is never.
+#[derive(Clone, Copy, Debug)]
+struct Interval(Option<Duration>);
+
+fn parse_interval(s: &str) -> Result<Interval, String> {
+    if s == "off" {
+        return Ok(Interval(None));
+    }
+    let bad = || format!("expected a duration such as 500ms, 30s, 5m, 1h or off, found `{s}`");
+    let split = s.find(|c: char| c.is_ascii_alphabetic()).ok_or_else(bad)?;
+    let value: f64 = s[..split].parse().map_err(|_| bad())?;
+    let unit = match &s[split..] {
+        "ms" => 1e-3,
+        "s" => 1.0,
+        "m" => 60.0,
+        "h" => 3600.0,
+        _ => return Err(bad()),
+    };
+    match Duration::try_from_secs_f64(value * unit) {
+        Ok(d) if !d.is_zero() => Ok(Interval(Some(d))),
+        _ => Err(bad()),
+    }
 }
 
 #[derive(clap::Args)]
@@ -175,6 +247,7 @@ fn main() -> ExitCode {
             rel_tol,
             fail_above,
         } => compare(&a, &b, abs_tol, rel_tol, fail_above),
+        Command::Merge(args) => merge_parts(&args),
         Command::Info => info(),
     };
     match result {
@@ -186,17 +259,18 @@ fn main() -> ExitCode {
     }
 }
 
-/// Rows finished, drawn as a bar with an ETA and the sample rate.
+/// Rows finished, drawn as a bar with an ETA and the sample rate; a step is
+/// one sample of every pixel of a row.
 struct Bar(ProgressBar);
 
 impl Progress for Bar {
-    fn row_done(&self) {
-        self.0.inc(1);
+    fn row_done(&self, samples: u32) {
+        self.0.inc(samples as u64);
     }
 }
 
-fn progress_bar(rows: u32, samples_per_row: u64, quiet: bool) -> ProgressBar {
-    let bar = ProgressBar::new(rows as u64);
+fn progress_bar(steps: u64, samples_per_step: u64, quiet: bool) -> ProgressBar {
+    let bar = ProgressBar::new(steps);
     if quiet || !std::io::stderr().is_terminal() {
         bar.set_draw_target(ProgressDrawTarget::hidden());
         return bar;
@@ -208,7 +282,7 @@ fn progress_bar(rows: u32, samples_per_row: u64, quiet: bool) -> ProgressBar {
             .with_key(
                 "rate",
                 move |state: &ProgressState, w: &mut dyn std::fmt::Write| {
-                    let rate = state.per_sec() * samples_per_row as f64 / 1e6;
+                    let rate = state.per_sec() * samples_per_step as f64 / 1e6;
                     let _ = write!(w, "{rate:.2} Msamples/s");
                 },
             );
@@ -223,6 +297,18 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     });
     // Refuse an output we cannot write before spending time on the render.
     imageio::check_output_path(&output).map_err(Failure::input)?;
+    let checkpoint = args
+        .checkpoint
+        .clone()
+        .or_else(|| args.resume.clone())
+        .unwrap_or_else(|| output.with_extension("checkpoint.exr"));
+    if !is_exr(&checkpoint) || checkpoint == output {
+        return Err(Failure::input(format!(
+            "{}: --checkpoint must name an .exr file other than the output",
+            checkpoint.display()
+        )));
+    }
+    imageio::check_output_path(&checkpoint).map_err(Failure::input)?;
     if let Some(threads) = args.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -241,6 +327,17 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     settings.seed = args.seed.unwrap_or(settings.seed);
     settings.russian_roulette = args.russian_roulette.unwrap_or(settings.russian_roulette);
     let scene = Arc::new(scene);
+    let spp = scene.render.spp;
+
+    let samples = sample_range(&args, spp)?;
+    if samples != (0..spp) && !is_exr(&output) {
+        return Err(Failure::input(format!(
+            "{}: a render of samples {}..{} must be written to .exr, which keeps what `luz merge` needs",
+            output.display(),
+            samples.start,
+            samples.end
+        )));
+    }
 
     let build_start = Instant::now();
     let build_options = BuildOptions {
@@ -250,14 +347,109 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let accel = Accel::build(&scene, args.backend, &build_options).map_err(Failure::input)?;
     let build_time = build_start.elapsed();
 
-    let options = RenderOptions::from_scene(&scene);
+    let meta = PartMeta {
+        version: env!("CARGO_PKG_VERSION").into(),
+        scene_hash: part::scene_hash(&scene),
+        seed: scene.render.seed,
+        spp,
+        ranges: vec![samples.clone()],
+        backend: accel.name().into(),
+    };
     let (width, height) = (scene.camera.width, scene.camera.height);
-    let bar = progress_bar(height, width as u64 * scene.render.spp as u64, args.quiet);
-    let (film, stats) = render_with(&scene, &accel, &options, &Bar(bar.clone()));
+    let mut film = match &args.resume {
+        Some(path) => resumed_film(path, &meta, (width, height))?,
+        None => Film::new(width, height),
+    };
+    let resumed_samples = film.samples;
+
+    // The first SIGINT or SIGTERM stops the render after the pass in flight;
+    // a second one ends the process at once, for a user who cannot wait.
+    let signal = Arc::new(AtomicUsize::new(0));
+    let signalled = Arc::new(AtomicBool::new(false));
+    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
+        use signal_hook::flag;
+        flag::register_conditional_shutdown(sig, 128 + sig, Arc::clone(&signalled))
+            .and_then(|_| flag::register(sig, Arc::clone(&signalled)))
+            .and_then(|_| flag::register_usize(sig, Arc::clone(&signal), sig as usize))
+            .map_err(Failure::other)?;
+    }
+
+    let options = RenderOptions {
+        samples: samples.clone(),
+        ..RenderOptions::from_scene(&scene)
+    };
+    let remaining = samples.len() as u64 - film.samples;
+    let bar = progress_bar(height as u64 * remaining, width as u64, args.quiet);
+    // Passes short enough that a signal is answered within a second or so,
+    // and that checkpoints come about when asked.
+    let pass_time = args
+        .checkpoint_every
+        .0
+        .map_or(Duration::from_secs(1), |every| {
+            every.min(Duration::from_secs(1))
+        });
+    let mut last_checkpoint = Instant::now();
+    let mut checkpoints = (0u32, Duration::ZERO);
+    let (outcome, stats) = render_passes(
+        &scene,
+        &accel,
+        &options,
+        &mut film,
+        &Bar(bar.clone()),
+        pass_time,
+        || signal.load(Ordering::Relaxed) != 0,
+        |film| {
+            match args.checkpoint_every.0 {
+                Some(every) if last_checkpoint.elapsed() >= every => {}
+                _ => return Ok(()),
+            }
+            let start = Instant::now();
+            write_part(&checkpoint, &meta, film)?;
+            checkpoints.0 += 1;
+            checkpoints.1 += start.elapsed();
+            last_checkpoint = Instant::now();
+            Ok::<_, Failure>(())
+        },
+    )?;
     bar.finish_and_clear();
 
-    imageio::write(&output, &film.image(), &args.tonemap.write_options())
-        .map_err(Failure::other)?;
+    if outcome == Outcome::Stopped {
+        let signal = signal.load(Ordering::Relaxed);
+        let name = if signal == signal_hook::consts::SIGINT as usize {
+            "SIGINT"
+        } else {
+            "SIGTERM"
+        };
+        if film.samples == 0 {
+            return Err(Failure {
+                status: 128 + signal as u8,
+                message: format!(
+                    "interrupted by {name} before any sample was done; nothing written"
+                ),
+            });
+        }
+        write_part(&checkpoint, &meta, &film)?;
+        write_output(&output, &meta, &film, &args.tonemap)?;
+        return Err(Failure {
+            status: 128 + signal as u8,
+            message: format!(
+                "interrupted by {name} after {} of {} samples per pixel; wrote the checkpoint {} and the partial image {}; resume with: {}",
+                film.samples,
+                samples.len(),
+                checkpoint.display(),
+                output.display(),
+                resume_command(&checkpoint)
+            ),
+        });
+    }
+
+    write_output(&output, &meta, &film, &args.tonemap)?;
+    // The output holds everything now; a checkpoint left behind would only
+    // mislead a later --resume.
+    if checkpoint.exists() {
+        std::fs::remove_file(&checkpoint)
+            .map_err(|e| Failure::other(format!("{}: cannot remove: {e}", checkpoint.display())))?;
+    }
     if film.non_finite > 0 {
         eprintln!(
             "luz: warning: {} samples were not finite and were left out",
@@ -265,10 +457,25 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         );
     }
     if !args.quiet {
+        let resumed = if resumed_samples > 0 {
+            format!(" (resumed at {resumed_samples})")
+        } else {
+            String::new()
+        };
+        let saved = if checkpoints.0 > 0 {
+            format!(
+                ", {} checkpoints in {:.3} s",
+                checkpoints.0,
+                checkpoints.1.as_secs_f64()
+            )
+        } else {
+            String::new()
+        };
         eprintln!(
-            "{}: {width}x{height}, {} spp, {} backend (built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s -> {}",
+            "{}: {width}x{height}, samples {}..{}{resumed} of {spp} spp, {} backend (built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s{saved} -> {}",
             args.scene.display(),
-            scene.render.spp,
+            samples.start,
+            samples.end,
             accel.name(),
             build_time.as_secs_f64(),
             rayon::current_num_threads(),
@@ -276,6 +483,193 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
             stats.msamples_per_s(),
             stats.mrays_per_s(),
             output.display()
+        );
+    }
+    Ok(())
+}
+
+fn is_exr(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// The samples to render: --samples, else the task's share of `0..spp`
+/// (--task-index, else the batch system's), else all of them.
+fn sample_range(args: &RenderArgs, spp: u32) -> Result<Range<u32>, Failure> {
+    if let Some(samples) = &args.samples {
+        return Ok(samples.clone());
+    }
+    let task = match (args.task_index, args.task_count) {
+        (Some(index), Some(count)) => Some(Task {
+            index,
+            count,
+            source: "--task-index",
+        }),
+        (_, count) => {
+            task::from_env(|name| std::env::var(name).ok(), count).map_err(Failure::input)?
+        }
+    };
+    match task {
+        Some(task) => {
+            let range = task.range(spp).map_err(Failure::input)?;
+            if !args.quiet {
+                eprintln!(
+                    "luz: task {} of {} ({}): samples {}..{} of {spp}",
+                    task.index, task.count, task.source, range.start, range.end
+                );
+            }
+            Ok(range)
+        }
+        None if args.task_count.is_some() => Err(Failure::input(
+            "--task-count needs --task-index, SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX",
+        )),
+        None => Ok(0..spp),
+    }
+}
+
+/// The film of a checkpoint, if it is of this very render.
+fn resumed_film(path: &Path, meta: &PartMeta, resolution: (u32, u32)) -> Result<Film, Failure> {
+    let saved = part::read(path).map_err(Failure::input)?;
+    let refuse = |field: &str, message: String| {
+        Failure::input(format!("{}: {field}: {message}", path.display()))
+    };
+    let (ours, theirs) = (meta, &saved.meta);
+    let saved_resolution = (saved.film.width, saved.film.height);
+    if saved_resolution != resolution {
+        return Err(refuse(
+            "dataWindow",
+            format!(
+                "the checkpoint is {}x{}, this render {}x{}",
+                saved_resolution.0, saved_resolution.1, resolution.0, resolution.1
+            ),
+        ));
+    }
+    if theirs.scene_hash != ours.scene_hash {
+        return Err(refuse(
+            "luz:sceneHash",
+            "the checkpoint is of another scene, resolution, depth or Russian roulette setting"
+                .into(),
+        ));
+    }
+    if theirs.seed != ours.seed {
+        return Err(refuse(
+            "luz:seed",
+            format!(
+                "the checkpoint has seed {}, this render {}",
+                theirs.seed, ours.seed
+            ),
+        ));
+    }
+    if theirs.backend != ours.backend || theirs.version != ours.version {
+        return Err(refuse(
+            "luz:backend",
+            format!(
+                "the checkpoint is of the {} backend of luz {}, this render of the {} backend of luz {}",
+                theirs.backend, theirs.version, ours.backend, ours.version
+            ),
+        ));
+    }
+    let want = &ours.ranges[0];
+    match theirs.ranges.as_slice() {
+        [held] if held.start == want.start && held.end <= want.end => Ok(saved.film),
+        _ => Err(refuse(
+            "luz:samples",
+            format!(
+                "the checkpoint holds samples {}, which do not start this render's {}..{}",
+                part::format_ranges(&theirs.ranges),
+                want.start,
+                want.end
+            ),
+        )),
+    }
+}
+
+/// Writes `film` as a part holding the first `film.samples` of the samples
+/// `meta` was made for.
+fn write_part(path: &Path, meta: &PartMeta, film: &Film) -> Result<(), Failure> {
+    let start = meta.ranges[0].start;
+    let held = start..start + film.samples as u32;
+    let part = Part {
+        meta: PartMeta {
+            ranges: vec![held],
+            ..meta.clone()
+        },
+        film: film.clone(),
+    };
+    part::write(path, &part).map_err(Failure::other)
+}
+
+fn write_output(
+    path: &Path,
+    meta: &PartMeta,
+    film: &Film,
+    tonemap: &ToneMapArgs,
+) -> Result<(), Failure> {
+    if is_exr(path) {
+        write_part(path, meta, film)
+    } else {
+        imageio::write(path, &film.image(), &tonemap.write_options()).map_err(Failure::other)
+    }
+}
+
+/// This process's command line with `--resume CHECKPOINT` in place of any
+/// `--resume` it had, quoted for a POSIX shell.
+fn resume_command(checkpoint: &Path) -> String {
+    let mut words = Vec::new();
+    let mut args = std::env::args();
+    while let Some(arg) = args.next() {
+        if arg == "--resume" {
+            args.next();
+        } else if !arg.starts_with("--resume=") {
+            words.push(arg);
+        }
+    }
+    words.push("--resume".into());
+    words.push(checkpoint.display().to_string());
+    let quote = |w: &String| {
+        if !w.is_empty()
+            && w.chars()
+                .all(|c| c.is_ascii_alphanumeric() || "_-./:=@%+,".contains(c))
+        {
+            w.clone()
+        } else {
+            format!("'{}'", w.replace('\'', r"'\''"))
+        }
+    };
+    words.iter().map(quote).collect::<Vec<_>>().join(" ")
+}
+
+fn merge_parts(args: &MergeArgs) -> Result<(), Failure> {
+    imageio::check_output_path(&args.output).map_err(Failure::input)?;
+    let mut parts = Vec::new();
+    for path in &args.parts {
+        parts.push((path.clone(), part::read(path).map_err(Failure::input)?));
+    }
+    let count = parts.len();
+    let merged = merge(parts, args.allow_gaps).map_err(Failure::input)?;
+    let (meta, film) = (&merged.part.meta, &merged.part.film);
+    if !merged.missing.is_empty() {
+        eprintln!(
+            "luz: warning: samples {} of {} per pixel are in no part; the image holds {}",
+            part::format_ranges(&merged.missing),
+            meta.spp,
+            film.samples
+        );
+    }
+    if is_exr(&args.output) {
+        part::write(&args.output, &merged.part).map_err(Failure::other)?;
+    } else {
+        imageio::write(&args.output, &film.image(), &args.tonemap.write_options())
+            .map_err(Failure::other)?;
+    }
+    if !args.quiet {
+        eprintln!(
+            "merged {count} parts: samples {} ({} per pixel), {}x{} -> {}",
+            part::format_ranges(&meta.ranges),
+            film.samples,
+            film.width,
+            film.height,
+            args.output.display()
         );
     }
     Ok(())

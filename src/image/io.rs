@@ -706,7 +706,7 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 /// Runs `body` on a buffered temporary file next to `path`, then syncs and
 /// renames it to `path`. On any failure the temporary is removed.
-fn write_atomic(
+pub(crate) fn write_atomic(
     path: &Path,
     body: impl FnOnce(&mut BufWriter<File>) -> Result<(), ImageError>,
 ) -> Result<(), ImageError> {

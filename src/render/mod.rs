@@ -5,6 +5,10 @@
 
 pub mod film;
 pub mod integrator;
+pub mod merge;
+pub mod part;
+pub mod passes;
+pub mod task;
 
 pub use film::{Film, PixelSum};
 pub use integrator::{Integrator, IntegratorSettings, RayCounts};
@@ -58,13 +62,14 @@ impl RenderStats {
     }
 }
 
-/// Something told of progress, once per finished row.
+/// Something told of progress, once per finished row of a pass.
 pub trait Progress: Sync {
-    fn row_done(&self);
+    /// One row got `samples` more samples in every pixel.
+    fn row_done(&self, samples: u32);
 }
 
 impl Progress for () {
-    fn row_done(&self) {}
+    fn row_done(&self, _samples: u32) {}
 }
 
 /// Renders `options.samples` of every pixel of `scene` through `backend`.
@@ -74,15 +79,36 @@ pub fn render<B: Backend + ?Sized>(
     options: &RenderOptions,
     progress: &dyn Progress,
 ) -> (Film, RenderStats) {
+    let mut film = Film::new(scene.camera.width, scene.camera.height);
+    let stats = render_into(scene, backend, options, &mut film, progress);
+    (film, stats)
+}
+
+/// Adds `options.samples` of every pixel to `film`, continuing each pixel's
+/// running sums. Rendering a range in consecutive pieces into one film
+/// therefore gives bit for bit the film of rendering it in one go: that is
+/// what makes checkpoints and resumed renders exact.
+pub fn render_into<B: Backend + ?Sized>(
+    scene: &Scene,
+    backend: &B,
+    options: &RenderOptions,
+    film: &mut Film,
+    progress: &dyn Progress,
+) -> RenderStats {
     let start = Instant::now();
     let cam = &scene.camera;
-    let (width, height) = (cam.width, cam.height);
+    let width = cam.width;
+    assert_eq!(
+        (film.width, film.height),
+        (cam.width, cam.height),
+        "the film must have the camera's resolution"
+    );
     let basis = cam.basis();
     let integrator = Integrator::new(scene, backend, options.integrator);
-    let mut film = Film::new(width, height);
     let counts = Mutex::new(RayCounts::default());
     let non_finite = AtomicU64::new(0);
     let samples = options.samples.clone();
+    let pass = samples.len() as u32;
 
     film.sum
         .par_chunks_mut(width as usize)
@@ -93,7 +119,11 @@ pub fn render<B: Backend + ?Sized>(
             let mut local = RayCounts::default();
             let mut bad = 0;
             for x in 0..width {
-                let mut px = PixelSum::default();
+                let mut px = PixelSum {
+                    sum: row_sum[x as usize],
+                    sum_sq: row_sq[x as usize],
+                    non_finite: 0,
+                };
                 for s in samples.clone() {
                     let mut rng = Rng::for_sample(options.seed, x, y, s);
                     let jitter = rng.next_2d();
@@ -106,17 +136,16 @@ pub fn render<B: Backend + ?Sized>(
             }
             counts.lock().expect("no panics while held").add(&local);
             non_finite.fetch_add(bad, Ordering::Relaxed);
-            progress.row_done();
+            progress.row_done(pass);
         });
 
-    film.samples = samples.len() as u64;
-    film.non_finite = non_finite.into_inner();
-    let stats = RenderStats {
+    film.samples += pass as u64;
+    film.non_finite += non_finite.into_inner();
+    RenderStats {
         wall: start.elapsed(),
         rays: counts.into_inner().expect("no panics while held"),
-        samples: film.samples * width as u64 * height as u64,
-    };
-    (film, stats)
+        samples: pass as u64 * width as u64 * cam.height as u64,
+    }
 }
 
 /// `render` with the backend held in an `Accel`.
@@ -130,5 +159,20 @@ pub fn render_with(
         crate::accel::Accel::Native(b) => render(scene, b, options, progress),
         #[cfg(luz_embree)]
         crate::accel::Accel::Embree(b) => render(scene, b, options, progress),
+    }
+}
+
+/// `render_into` with the backend held in an `Accel`.
+pub fn render_into_with(
+    scene: &Scene,
+    accel: &crate::accel::Accel,
+    options: &RenderOptions,
+    film: &mut Film,
+    progress: &dyn Progress,
+) -> RenderStats {
+    match accel {
+        crate::accel::Accel::Native(b) => render_into(scene, b, options, film, progress),
+        #[cfg(luz_embree)]
+        crate::accel::Accel::Embree(b) => render_into(scene, b, options, film, progress),
     }
 }

@@ -1,0 +1,200 @@
+//! Merging render parts: films of disjoint sample ranges of one render add
+//! up to the film of all their samples (see the determinism rule of the
+//! render loop). Everything that would make the sum wrong is refused.
+
+use super::part::{format_ranges, Part, PartMeta};
+use super::Film;
+use std::ops::Range;
+use std::path::PathBuf;
+
+#[derive(Debug, thiserror::Error)]
+pub enum MergeError {
+    #[error("no parts to merge")]
+    Empty,
+    #[error(
+        "{}: {field} {theirs} differs from {}'s {ours}: parts of different renders cannot be merged",
+        path.display(), first.display()
+    )]
+    Mismatch {
+        path: PathBuf,
+        first: PathBuf,
+        field: &'static str,
+        ours: String,
+        theirs: String,
+    },
+    #[error("{} and {} both hold samples {}..{}", a.display(), b.display(), overlap.start, overlap.end)]
+    Overlap {
+        a: PathBuf,
+        b: PathBuf,
+        overlap: Range<u32>,
+    },
+    #[error(
+        "samples {} of {spp} per pixel are in no part (pass --allow-gaps to merge without them)",
+        format_ranges(missing)
+    )]
+    Gaps { missing: Vec<Range<u32>>, spp: u32 },
+}
+
+#[derive(Debug)]
+pub struct Merged {
+    pub part: Part,
+    /// Sample indices below the render's spp that no part holds.
+    pub missing: Vec<Range<u32>>,
+}
+
+/// Merges `parts` (each with the file it came from, for messages). The
+/// result does not depend on the order of `parts`: films are added in the
+/// order of their samples.
+pub fn merge(mut parts: Vec<(PathBuf, Part)>, allow_gaps: bool) -> Result<Merged, MergeError> {
+    let (first_path, first) = parts.first().ok_or(MergeError::Empty)?;
+    for (path, part) in &parts[1..] {
+        let mismatch = |field, ours: String, theirs: String| MergeError::Mismatch {
+            path: path.clone(),
+            first: first_path.clone(),
+            field,
+            ours,
+            theirs,
+        };
+        let (a, b) = (&first.film, &part.film);
+        if (a.width, a.height) != (b.width, b.height) {
+            return Err(mismatch(
+                "resolution",
+                format!("{}x{}", a.width, a.height),
+                format!("{}x{}", b.width, b.height),
+            ));
+        }
+        let (a, b) = (&first.meta, &part.meta);
+        let fields: [(&'static str, String, String); 4] = [
+            (
+                "scene hash",
+                format!("{:016x}", a.scene_hash),
+                format!("{:016x}", b.scene_hash),
+            ),
+            ("seed", a.seed.to_string(), b.seed.to_string()),
+            ("backend", a.backend.clone(), b.backend.clone()),
+            ("luz version", a.version.clone(), b.version.clone()),
+        ];
+        if let Some((field, ours, theirs)) = fields.into_iter().find(|(_, a, b)| a != b) {
+            return Err(mismatch(field, ours, theirs));
+        }
+    }
+
+    let mut held: Vec<(Range<u32>, usize)> = parts
+        .iter()
+        .enumerate()
+        .flat_map(|(i, (_, p))| p.meta.ranges.iter().map(move |r| (r.clone(), i)))
+        .collect();
+    held.sort_by_key(|(r, _)| r.start);
+    for w in held.windows(2) {
+        let ((a, i), (b, j)) = (&w[0], &w[1]);
+        if a.end > b.start {
+            return Err(MergeError::Overlap {
+                a: parts[*i].0.clone(),
+                b: parts[*j].0.clone(),
+                overlap: b.start..a.end.min(b.end),
+            });
+        }
+    }
+    let mut ranges: Vec<Range<u32>> = Vec::new();
+    for (r, _) in held {
+        match ranges.last_mut() {
+            Some(last) if last.end == r.start => last.end = r.end,
+            _ => ranges.push(r),
+        }
+    }
+    let end = ranges.last().map_or(0, |r| r.end);
+    let spp = parts.iter().map(|(_, p)| p.meta.spp).max().unwrap_or(0);
+    let mut missing = Vec::new();
+    let mut next = 0;
+    for r in ranges
+        .iter()
+        .chain(std::iter::once(&(spp.max(end)..u32::MAX)))
+    {
+        if next < r.start {
+            missing.push(next..r.start);
+        }
+        next = r.end;
+    }
+    if !missing.is_empty() && !allow_gaps {
+        return Err(MergeError::Gaps { missing, spp });
+    }
+
+    parts.sort_by_key(|(_, p)| p.meta.ranges[0].start);
+    let (width, height) = (parts[0].1.film.width, parts[0].1.film.height);
+    let mut film = Film::new(width, height);
+    for (_, part) in &parts {
+        film.merge(&part.film);
+    }
+    let meta = PartMeta {
+        ranges,
+        spp,
+        ..parts[0].1.meta.clone()
+    };
+    Ok(Merged {
+        part: Part { meta, film },
+        missing,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn part(ranges: &[(u32, u32)], value: f64) -> (PathBuf, Part) {
+        let mut film = Film::new(2, 1);
+        film.sum = vec![[value; 3]; 2];
+        film.sum_sq = vec![[value * value; 3]; 2];
+        let meta = PartMeta {
+            version: "1".into(),
+            scene_hash: 42,
+            seed: 7,
+            spp: 8,
+            ranges: ranges.iter().map(|&(a, b)| a..b).collect(),
+            backend: "rust".into(),
+        };
+        film.samples = meta.sample_count();
+        let name = format!("{}.exr", format_ranges(&meta.ranges));
+        (name.into(), Part { meta, film })
+    }
+
+    #[test]
+    fn merges_in_sample_order_and_coalesces_ranges() {
+        let merged = merge(vec![part(&[(4, 8)], 2.0), part(&[(0, 4)], 1.0)], false).unwrap();
+        assert_eq!(merged.part.meta.ranges, vec![0..8]);
+        assert_eq!(merged.part.film.samples, 8);
+        assert_eq!(merged.part.film.sum[0], [3.0; 3]);
+        assert!(merged.missing.is_empty());
+    }
+
+    #[test]
+    fn refuses_overlaps_gaps_and_foreign_parts() {
+        let err = merge(vec![part(&[(0, 5)], 1.0), part(&[(4, 8)], 1.0)], false).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "0..5.exr and 4..8.exr both hold samples 4..5"
+        );
+
+        let err = merge(vec![part(&[(0, 2)], 1.0), part(&[(4, 6)], 1.0)], false).unwrap_err();
+        assert!(err
+            .to_string()
+            .starts_with("samples 2..4,6..8 of 8 per pixel are in no part"));
+        let merged = merge(vec![part(&[(0, 2)], 1.0), part(&[(4, 6)], 1.0)], true).unwrap();
+        assert_eq!(merged.missing, vec![2..4, 6..8]);
+        assert_eq!(merged.part.meta.ranges, vec![0..2, 4..6]);
+
+        let mut other = part(&[(4, 8)], 1.0);
+        other.1.meta.seed = 8;
+        let err = merge(vec![part(&[(0, 4)], 1.0), other], false).unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "4..8.exr: seed 8 differs from 0..4.exr's 7: parts of different renders cannot be merged"
+        );
+
+        let mut other = part(&[(4, 8)], 1.0);
+        other.1.film = Film::new(1, 2);
+        let err = merge(vec![part(&[(0, 4)], 1.0), other], false).unwrap_err();
+        assert!(err
+            .to_string()
+            .contains("resolution 1x2 differs from 0..4.exr's 2x1"));
+    }
+}
