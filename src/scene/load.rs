@@ -25,20 +25,33 @@ pub struct SceneError {
 
 /// Loads and validates the scene file at `path`.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read(path).map_err(|e| SceneError {
+    let data = std::fs::read(path).map_err(|e| SceneError {
         file: path.to_path_buf(),
         location: None,
         message: format!("cannot read the scene file: {e}"),
     })?;
-    let text = String::from_utf8(text).map_err(|e| {
-        let offset = e.utf8_error().valid_up_to();
+    load_bytes(&data, path)
+}
+
+/// Loads a scene from the bytes of a scene file, which must be UTF-8;
+/// `path` names it in errors and anchors relative file names.
+pub fn load_bytes(data: &[u8], path: &Path) -> Result<Scene, SceneError> {
+    let text = std::str::from_utf8(data).map_err(|e| {
+        let valid = &data[..e.valid_up_to()];
+        let line_start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         SceneError {
             file: path.to_path_buf(),
-            location: None,
-            message: format!("the file is not UTF-8 text (invalid byte at offset {offset})"),
+            location: Some((
+                valid.iter().filter(|&&b| b == b'\n').count() + 1,
+                valid.len() - line_start + 1,
+            )),
+            message: format!(
+                "the file is not UTF-8 text (invalid byte at offset {})",
+                valid.len()
+            ),
         }
     })?;
-    load_str(&text, path)
+    load_str(text, path)
 }
 
 /// Loads a scene from `text`; `path` names it in errors and anchors
