@@ -741,6 +741,13 @@ impl Ctx<'_> {
                 for v in vertices {
                     positions.push(self.finite3(span, "vertices", *v)?);
                 }
+                if super::mesh_io::is_degenerate([positions[0], positions[1], positions[2]]) {
+                    return Err(self.field_error(
+                        span,
+                        "vertices",
+                        "the triangle has no area (collinear vertices)",
+                    ));
+                }
                 let uvs = match &sd.uvs {
                     Some(uvs) if uvs.len() == 3 => {
                         Some(uvs.iter().map(|&u| Vec2::from(u)).collect())
@@ -780,6 +787,15 @@ impl Ctx<'_> {
                     * Quat::from_rotation_x(r.x.to_radians());
                 if sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some() {
                     mesh.transform(&Mat4::from_scale_rotation_translation(scale, rotation, t));
+                    // A very uneven scale can flatten triangles to lines.
+                    super::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
+                    if mesh.indices.is_empty() {
+                        return Err(self.field_error(
+                            span,
+                            "scale",
+                            "every triangle of the mesh is degenerate once transformed",
+                        ));
+                    }
                 }
                 Geometry::Mesh(mesh)
             }
@@ -899,6 +915,18 @@ mod tests {
             "{e}"
         );
         assert_eq!(e.location.map(|l| l.0), Some(6));
+    }
+
+    #[test]
+    fn collinear_triangle_is_rejected() {
+        let e = err(&format!(
+            "{MINIMAL}[[shapes]]\ntype = \"triangle\"\nvertices = [[0,0,0],[1,1,1],[2,2,2]]\n"
+        ));
+        assert_eq!(e.location.map(|l| l.0), Some(6), "{e}");
+        assert!(
+            e.message.contains("`vertices`: the triangle has no area"),
+            "{e}"
+        );
     }
 
     #[test]

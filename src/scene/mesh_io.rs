@@ -524,8 +524,10 @@ fn parse_ply(data: &[u8]) -> Result<Mesh, Fail> {
             binary_body::<true>(data, header.body, &header.elements, &roles, &mut out)?
         }
     }
+    let triangles = out.indices.len();
+    drop_degenerate(&out.positions, &mut out.indices);
     if out.indices.is_empty() {
-        return Err(fail_at(face_line, 1, "the file has no faces"));
+        return Err(fail_at(face_line, 1, no_faces(triangles)));
     }
     Ok(Mesh {
         positions: out.positions,
@@ -1037,19 +1039,48 @@ fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
         let msg = check_finite(mesh.positions[i], uv, i).unwrap_err();
         return Err(locate_obj_problem(text).unwrap_or_else(|| fail(msg)));
     }
+    let triangles = mesh.indices.len();
+    drop_degenerate(&mesh.positions, &mut mesh.indices);
     if mesh.indices.is_empty() {
         // tobj drops malformed faces silently: name the first one if any,
         // else point at the end of the file, where faces were still expected.
-        return Err(locate_obj_problem(text).unwrap_or_else(|| {
-            let line_start = text.rfind('\n').map_or(0, |i| i + 1);
-            fail_at(
-                text.matches('\n').count() + 1,
-                text.len() - line_start + 1,
-                "the file has no faces",
-            )
-        }));
+        let line_start = text.rfind('\n').map_or(0, |i| i + 1);
+        let at_end = fail_at(
+            text.matches('\n').count() + 1,
+            text.len() - line_start + 1,
+            no_faces(triangles),
+        );
+        return Err(match triangles {
+            0 => locate_obj_problem(text).unwrap_or(at_end),
+            _ => at_end,
+        });
     }
     Ok(mesh)
+}
+
+fn no_faces(triangles: usize) -> String {
+    match triangles {
+        0 => "the file has no faces".into(),
+        n => format!("all {n} triangles are degenerate (collinear vertices)"),
+    }
+}
+
+/// Whether the triangle's vertices are collinear to f32 precision: a
+/// repeated vertex, or |e1 × e2| ≤ 1e-6 |e1| |e2| (an angle under 1e-6 rad
+/// at `a`). Such a triangle has no area to render and no reliable normal,
+/// yet intersection tests still report hits on it: the extremes suite
+/// measured zero or random normals and self-hits on both backends when a
+/// mesh kept them.
+pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
+    // In f64, so no finite f32 coordinates overflow.
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let (e1, e2) = (b - a, c - a);
+    e1.cross(e2).length() <= 1e-6 * e1.length() * e2.length()
+}
+
+/// Drops the degenerate triangles (see [`is_degenerate`]).
+pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) {
+    indices.retain(|t| !is_degenerate(t.map(|i| positions[i as usize])));
 }
 
 /// Finds the line of the first malformed or out-of-range `v`, `vt` or `f`
@@ -1456,6 +1487,11 @@ end_header\r
         assert_eq!(e, ":7:1: the file has no faces");
         let e = err("z.obj", b"v 0 0 0\nv 1 0 0\n");
         assert_eq!(e, ":3:1: the file has no faces");
+        let e = err("d.ply", ply("0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n").as_bytes());
+        assert_eq!(
+            e,
+            ":7:1: all 1 triangles are degenerate (collinear vertices)"
+        );
     }
 
     #[test]
