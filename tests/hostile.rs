@@ -5,6 +5,7 @@
 //! run under a 1 GiB address-space limit, so a reader that allocated for the
 //! header's count before the data is there aborts instead of passing.
 
+use std::os::unix::process::ExitStatusExt;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -384,6 +385,12 @@ fn malformed_ply_files() {
         )
         .needle("vertex index -1 is out of range"),
         with_file(
+            "ply-all-degenerate",
+            "m.ply",
+            format!("{PLY_HEADER}0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n"),
+        )
+        .needle("degenerate"),
+        with_file(
             "ply-ascii-huge-counts",
             "m.ply",
             PLY_HEADER
@@ -560,4 +567,60 @@ fn tonemap_of_a_truncated_ppm_writes_nothing() {
         "{stderr}"
     );
     assert!(!output.exists());
+}
+
+/// A render killed while its image is being written leaves the previous
+/// file under the final name untouched: the data goes to a hidden temporary
+/// that is renamed only once complete. The render is a 2048×2048 EXR (50 MB
+/// to write); the test kills luz as soon as the temporary appears, and tries
+/// again if a render finished before it could (a heavily loaded machine).
+#[test]
+fn killed_while_writing_leaves_the_old_image() {
+    let dir = temp_dir("killed");
+    let scene_path = dir.join("big.toml");
+    std::fs::write(
+        &scene_path,
+        scene(None, false).replace("resolution = [8, 8]", "resolution = [2048, 2048]"),
+    )
+    .unwrap();
+    let out_file = dir.join("out.exr");
+    let temporaries = || -> Vec<String> {
+        std::fs::read_dir(&dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .filter(|n| n.starts_with(".out.exr.luz-tmp-"))
+            .collect()
+    };
+    for attempt in 1..=3 {
+        std::fs::write(&out_file, b"the previous image").unwrap();
+        let mut child = Command::new(env!("CARGO_BIN_EXE_luz"))
+            .args(["render", scene_path.to_str().unwrap(), "--backend", "rust"])
+            .args(["--quiet", "-o", out_file.to_str().unwrap()])
+            .spawn()
+            .expect("the luz binary runs");
+        let caught = loop {
+            if !temporaries().is_empty() {
+                child.kill().unwrap();
+                // It may have renamed the file or exited in between.
+                let killed = child.wait().unwrap().signal() == Some(9);
+                break killed && !temporaries().is_empty();
+            }
+            if let Some(status) = child.try_wait().unwrap() {
+                assert!(status.success(), "attempt {attempt}: {status}");
+                break false;
+            }
+            std::thread::sleep(std::time::Duration::from_micros(200));
+        };
+        if caught {
+            assert_eq!(std::fs::read(&out_file).unwrap(), b"the previous image");
+            assert_eq!(
+                temporaries().len(),
+                1,
+                "the hidden temporary is all that is left"
+            );
+            return;
+        }
+        eprintln!("attempt {attempt}: the render finished before it could be killed");
+    }
+    panic!("three renders finished before the test could kill one while writing");
 }
