@@ -3,8 +3,8 @@
 #   fuzz/run.sh [SECONDS] [TARGET...]    (targets: scene ply obj ppm)
 # Needs a nightly toolchain and cargo-fuzz (`cargo install cargo-fuzz`).
 # New inputs go to fuzz/corpus/TARGET, starting from the committed seeds in
-# fuzz/seeds/TARGET; a crash stops its target and leaves the input in
-# fuzz/artifacts/TARGET. Prints executions and coverage per target.
+# fuzz/seeds/TARGET; a crash, or an input that takes over 10 s, stops its
+# target and leaves the input in fuzz/artifacts/TARGET. Prints executions and coverage per target.
 set -euo pipefail
 cd "$(dirname "$0")"
 seconds="${1:-180}"
@@ -19,7 +19,7 @@ for t in "${targets[@]}"; do
     mkdir -p "corpus/$t"
     log="$(mktemp)"
     if cargo +nightly fuzz run -O "$t" "corpus/$t" "seeds/$t" -- \
-        -max_total_time="$seconds" -print_final_stats=1 >"$log" 2>&1; then
+        -max_total_time="$seconds" -timeout=10 -print_final_stats=1 >"$log" 2>&1; then
         result="no crash"
     else
         result="CRASH (see fuzz/artifacts/$t)"

@@ -225,6 +225,11 @@ impl Ctx<'_> {
 
     /// Offset of `key =` inside `span`, if written there.
     fn find_key(&self, span: &Range<usize>, key: &str) -> Option<usize> {
+        // An empty key (`"" = 1`, found by fuzzing) would match everywhere
+        // without advancing.
+        if key.is_empty() {
+            return None;
+        }
         let end = span.end.min(self.text.len());
         let start = span.start.min(end);
         let region = &self.text[start..end];
@@ -881,6 +886,14 @@ mod tests {
             e.message.contains("radus") && e.message.contains("did you mean `radius`"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn empty_keys_are_unknown_fields() {
+        for text in ["\"\" = 1\n", "[camera]\n\"\" = \"\"\n"] {
+            let e = err(text);
+            assert!(e.message.contains("unknown field ``"), "{e}");
+        }
     }
 
     #[test]
