@@ -67,10 +67,19 @@ pub enum ImageError {
         source: std::io::Error,
     },
     /// A located error in a text header or ascii body (PPM).
-    #[error("{}:{line}: {field}: {message}", path.display())]
+    #[error("{}:{line}:{column}: {field}: {message}", path.display())]
     Parse {
         path: PathBuf,
         line: usize,
+        column: usize,
+        field: String,
+        message: String,
+    },
+    /// A located error in binary data (PPM pixels).
+    #[error("{}: byte {offset}: {field}: {message}", path.display())]
+    BinaryParse {
+        path: PathBuf,
+        offset: usize,
         field: String,
         message: String,
     },
@@ -217,7 +226,7 @@ pub fn read_texture(path: &Path) -> Result<Image, ImageError> {
 
 fn decode(path: &Path, data: &[u8], kind: Kind) -> Result<Image, ImageError> {
     let format = match kind {
-        Kind::Ppm => return read_ppm(path, data),
+        Kind::Ppm => return parse_ppm(data, path),
         Kind::Exr => ImageFormat::OpenExr,
         Kind::Hdr => ImageFormat::Hdr,
         Kind::Png => ImageFormat::Png,
@@ -307,7 +316,6 @@ struct PpmReader<'a> {
     path: &'a Path,
     data: &'a [u8],
     pos: usize,
-    line: usize,
     /// `#MAX=` value, if the header had one.
     max: Option<f64>,
     in_body: bool,
@@ -318,10 +326,27 @@ fn is_space(b: u8) -> bool {
 }
 
 impl<'a> PpmReader<'a> {
-    fn error(&self, line: usize, field: &str, message: impl Into<String>) -> ImageError {
+    /// An error at byte `offset` of the text, reported as line and column.
+    fn error(&self, offset: usize, field: &str, message: impl Into<String>) -> ImageError {
+        let before = &self.data[..offset.min(self.data.len())];
+        let line_start = before
+            .iter()
+            .rposition(|&b| b == b'\n')
+            .map_or(0, |i| i + 1);
         ImageError::Parse {
             path: self.path.to_path_buf(),
-            line,
+            line: before.iter().filter(|&&b| b == b'\n').count() + 1,
+            column: before.len() - line_start + 1,
+            field: field.to_string(),
+            message: message.into(),
+        }
+    }
+
+    /// An error at byte `offset` of binary pixel data.
+    fn binary_error(&self, offset: usize, field: &str, message: impl Into<String>) -> ImageError {
+        ImageError::BinaryParse {
+            path: self.path.to_path_buf(),
+            offset,
             field: field.to_string(),
             message: message.into(),
         }
@@ -331,10 +356,7 @@ impl<'a> PpmReader<'a> {
     fn skip(&mut self) -> Result<(), ImageError> {
         while self.pos < self.data.len() {
             let b = self.data[self.pos];
-            if b == b'\n' {
-                self.line += 1;
-                self.pos += 1;
-            } else if is_space(b) {
+            if is_space(b) {
                 self.pos += 1;
             } else if b == b'#' {
                 let start = self.pos + 1;
@@ -344,7 +366,7 @@ impl<'a> PpmReader<'a> {
                     .map_or(self.data.len(), |n| start + n);
                 let text = String::from_utf8_lossy(&self.data[start..end]);
                 if let Some(value) = text.trim().strip_prefix("MAX=") {
-                    self.max_comment(value.trim())?;
+                    self.max_comment(self.pos, value.trim())?;
                 }
                 self.pos = end;
             } else {
@@ -354,12 +376,13 @@ impl<'a> PpmReader<'a> {
         Ok(())
     }
 
-    fn max_comment(&mut self, value: &str) -> Result<(), ImageError> {
+    /// Takes the value of a `#MAX=` comment that starts at byte `at`.
+    fn max_comment(&mut self, at: usize, value: &str) -> Result<(), ImageError> {
         if self.in_body {
-            return Err(self.error(self.line, "MAX", "must come before the pixel data"));
+            return Err(self.error(at, "MAX", "must come before the pixel data"));
         }
         if self.max.is_some() {
-            return Err(self.error(self.line, "MAX", "given more than once"));
+            return Err(self.error(at, "MAX", "given more than once"));
         }
         match value.parse::<f64>() {
             Ok(m) if m.is_finite() && m > 0.0 && m <= f32::MAX as f64 => {
@@ -367,14 +390,14 @@ impl<'a> PpmReader<'a> {
                 Ok(())
             }
             _ => Err(self.error(
-                self.line,
+                at,
                 "MAX",
                 format!("expected a positive finite number, found `{value}`"),
             )),
         }
     }
 
-    /// The next whitespace-delimited token and the line it is on.
+    /// The next whitespace-delimited token and its offset.
     fn token(&mut self, field: &str) -> Result<(String, usize), ImageError> {
         self.skip()?;
         let start = self.pos;
@@ -385,34 +408,36 @@ impl<'a> PpmReader<'a> {
             self.pos += 1;
         }
         if start == self.pos {
-            return Err(self.error(self.line, field, "unexpected end of file"));
+            return Err(self.error(self.pos, field, "unexpected end of file"));
         }
         Ok((
             String::from_utf8_lossy(&self.data[start..self.pos]).into_owned(),
-            self.line,
+            start,
         ))
     }
 
     /// An integer in `lo..=hi`.
     fn int(&mut self, field: &str, lo: u64, hi: u64, expected: &str) -> Result<u64, ImageError> {
-        let (tok, line) = self.token(field)?;
+        let (tok, at) = self.token(field)?;
         match tok.parse::<u64>() {
             Ok(v) if (lo..=hi).contains(&v) => Ok(v),
-            _ => Err(self.error(line, field, format!("expected {expected}, found `{tok}`"))),
+            _ => Err(self.error(at, field, format!("expected {expected}, found `{tok}`"))),
         }
     }
 }
 
-fn read_ppm(path: &Path, data: &[u8]) -> Result<Image, ImageError> {
+/// Parses the contents of a PPM file (`P2`, `P3`, `P5`, `P6`, with or
+/// without `#MAX=`); `path` names it in errors. The header's size is never
+/// trusted for an allocation before the data is there.
+pub fn parse_ppm(data: &[u8], path: &Path) -> Result<Image, ImageError> {
     let mut r = PpmReader {
         path,
         data,
         pos: 0,
-        line: 1,
         max: None,
         in_body: false,
     };
-    let (magic, line) = r.token("magic number")?;
+    let (magic, at) = r.token("magic number")?;
     let (binary, grey) = match magic.as_str() {
         "P2" => (false, true),
         "P3" => (false, false),
@@ -420,17 +445,18 @@ fn read_ppm(path: &Path, data: &[u8]) -> Result<Image, ImageError> {
         "P6" => (true, false),
         _ => {
             return Err(r.error(
-                line,
+                at,
                 "magic number",
                 format!("expected P2, P3, P5 or P6, found `{magic}`"),
             ))
         }
     };
     let positive = "a positive integer";
+    r.skip()?;
+    let width_at = r.pos;
     let width = r.int("width", 1, u32::MAX as u64, positive)?;
     let height = r.int("height", 1, u32::MAX as u64, positive)?;
     let maxval_hi = if binary { 65535 } else { u32::MAX as u64 };
-    let dims_line = r.line;
     let maxval_expected = if binary {
         "a positive integer up to 65535"
     } else {
@@ -443,7 +469,7 @@ fn read_ppm(path: &Path, data: &[u8]) -> Result<Image, ImageError> {
         .checked_mul(height)
         .and_then(|n| n.checked_mul(channels))
         .filter(|&n| n <= isize::MAX as u64 / 8)
-        .ok_or_else(|| r.error(dims_line, "width", format!("{width}x{height} is too large")))?
+        .ok_or_else(|| r.error(width_at, "width", format!("{width}x{height} is too large")))?
         as usize;
 
     // Each integer i stands for i * scale, then (without #MAX) sRGB decoding.
@@ -462,15 +488,10 @@ fn read_ppm(path: &Path, data: &[u8]) -> Result<Image, ImageError> {
     if binary {
         // Exactly one whitespace byte separates maxval from the data.
         match data.get(r.pos) {
-            Some(&b) if is_space(b) => {
-                r.pos += 1;
-                if b == b'\n' {
-                    r.line += 1;
-                }
-            }
+            Some(&b) if is_space(b) => r.pos += 1,
             _ => {
                 return Err(r.error(
-                    r.line,
+                    r.pos,
                     "maxval",
                     "expected one whitespace byte before the pixel data",
                 ))
@@ -480,8 +501,8 @@ fn read_ppm(path: &Path, data: &[u8]) -> Result<Image, ImageError> {
         let need = values * bytes;
         let body = &data[r.pos..];
         if body.len() < need {
-            return Err(r.error(
-                r.line,
+            return Err(r.binary_error(
+                r.pos,
                 "pixel data",
                 format!(
                     "truncated: {width}x{height} pixels need {need} bytes, found {}",
@@ -498,8 +519,8 @@ fn read_ppm(path: &Path, data: &[u8]) -> Result<Image, ImageError> {
             };
             if i > maxval {
                 let p = k as u64 / channels;
-                return Err(r.error(
-                    r.line,
+                return Err(r.binary_error(
+                    r.pos + k * bytes,
                     &sample_field(p % width, p / width, k as u64 % channels, grey),
                     format!("{i} exceeds maxval {maxval}"),
                 ));
@@ -968,43 +989,43 @@ mod tests {
     fn ppm_errors_name_file_line_and_field() {
         let e = ppm_error("maxval", b"P3\n2 2\nabc\n");
         assert!(
-            e.ends_with("maxval.ppm:3: maxval: expected a positive integer, found `abc`"),
+            e.ends_with("maxval.ppm:3:1: maxval: expected a positive integer, found `abc`"),
             "{e}"
         );
         let e = ppm_error("magic", b"P7\n1 1\n");
         assert!(
-            e.contains("magic.ppm:1: magic number: expected P2, P3, P5 or P6, found `P7`"),
+            e.contains("magic.ppm:1:1: magic number: expected P2, P3, P5 or P6, found `P7`"),
             "{e}"
         );
         let e = ppm_error("width", b"P3\n0 2\n255\n");
         assert!(
-            e.contains("width.ppm:2: width: expected a positive integer, found `0`"),
+            e.contains("width.ppm:2:1: width: expected a positive integer, found `0`"),
             "{e}"
         );
         let e = ppm_error("max", b"P3\n#MAX=nan\n1 1\n255\n0 0 0\n");
         assert!(
-            e.contains("max.ppm:2: MAX: expected a positive finite number, found `nan`"),
+            e.contains("max.ppm:2:1: MAX: expected a positive finite number, found `nan`"),
             "{e}"
         );
         let e = ppm_error("max-neg", b"P3\n#MAX=-3\n1 1\n255\n0 0 0\n");
-        assert!(e.contains("max-neg.ppm:2: MAX:"), "{e}");
+        assert!(e.contains("max-neg.ppm:2:1: MAX:"), "{e}");
         let e = ppm_error("value", b"P3\n2 1\n255\n0 0 0\n0 256 0\n");
         assert!(
             e.contains(
-                "value.ppm:5: pixel (1, 0) green: expected an integer in 0..=255, found `256`"
+                "value.ppm:5:3: pixel (1, 0) green: expected an integer in 0..=255, found `256`"
             ),
             "{e}"
         );
         let e = ppm_error("negative", b"P3\n1 1\n255\n0 -1 0\n");
-        assert!(e.contains("negative.ppm:4: pixel (0, 0) green:"), "{e}");
+        assert!(e.contains("negative.ppm:4:3: pixel (0, 0) green:"), "{e}");
         let e = ppm_error("late-max", b"P3\n1 1\n255\n0 0\n#MAX=3\n0\n");
         assert!(
-            e.contains("late-max.ppm:5: MAX: must come before the pixel data"),
+            e.contains("late-max.ppm:5:1: MAX: must come before the pixel data"),
             "{e}"
         );
         let e = ppm_error("empty", b"P3\n");
         assert!(
-            e.contains("empty.ppm:2: width: unexpected end of file"),
+            e.contains("empty.ppm:2:1: width: unexpected end of file"),
             "{e}"
         );
     }
@@ -1013,7 +1034,7 @@ mod tests {
     fn truncated_and_oversized_ppm_are_errors() {
         let e = ppm_error("trunc-ascii", b"P3\n2 2\n255\n1 2 3\n4 5");
         assert!(
-            e.contains("trunc-ascii.ppm:5: pixel (1, 0) blue: unexpected end of file"),
+            e.contains("trunc-ascii.ppm:5:4: pixel (1, 0) blue: unexpected end of file"),
             "{e}"
         );
         let mut p6 = b"P6\n2 2\n255\n".to_vec();
@@ -1021,7 +1042,7 @@ mod tests {
         let e = ppm_error("trunc-bin", &p6);
         assert!(
             e.contains(
-                "trunc-bin.ppm:4: pixel data: truncated: 2x2 pixels need 12 bytes, found 11"
+                "trunc-bin.ppm: byte 11: pixel data: truncated: 2x2 pixels need 12 bytes, found 11"
             ),
             "{e}"
         );
@@ -1030,12 +1051,12 @@ mod tests {
         assert!(e.contains("huge.ppm"), "{e}");
         let e = ppm_error("huge-ascii", b"P3\n4000000000 4000000000\n255\n0 0 0");
         assert!(
-            e.contains("huge-ascii.ppm:2: width: 4000000000x4000000000 is too large"),
+            e.contains("huge-ascii.ppm:2:1: width: 4000000000x4000000000 is too large"),
             "{e}"
         );
         let e = ppm_error("p6-maxval", b"P6 1 1 70000 \0\0\0\0\0\0");
         assert!(
-            e.contains("p6-maxval.ppm:1: maxval: expected a positive integer up to 65535"),
+            e.contains("p6-maxval.ppm:1:8: maxval: expected a positive integer up to 65535"),
             "{e}"
         );
         let mut p6 = b"P6 1 1 100 ".to_vec();

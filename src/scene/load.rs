@@ -25,20 +25,33 @@ pub struct SceneError {
 
 /// Loads and validates the scene file at `path`.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read(path).map_err(|e| SceneError {
+    let data = std::fs::read(path).map_err(|e| SceneError {
         file: path.to_path_buf(),
         location: None,
         message: format!("cannot read the scene file: {e}"),
     })?;
-    let text = String::from_utf8(text).map_err(|e| {
-        let offset = e.utf8_error().valid_up_to();
+    load_bytes(&data, path)
+}
+
+/// Loads a scene from the bytes of a scene file, which must be UTF-8;
+/// `path` names it in errors and anchors relative file names.
+pub fn load_bytes(data: &[u8], path: &Path) -> Result<Scene, SceneError> {
+    let text = std::str::from_utf8(data).map_err(|e| {
+        let valid = &data[..e.valid_up_to()];
+        let line_start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
         SceneError {
             file: path.to_path_buf(),
-            location: None,
-            message: format!("the file is not UTF-8 text (invalid byte at offset {offset})"),
+            location: Some((
+                valid.iter().filter(|&&b| b == b'\n').count() + 1,
+                valid.len() - line_start + 1,
+            )),
+            message: format!(
+                "the file is not UTF-8 text (invalid byte at offset {})",
+                valid.len()
+            ),
         }
     })?;
-    load_str(&text, path)
+    load_str(text, path)
 }
 
 /// Loads a scene from `text`; `path` names it in errors and anchors
@@ -212,6 +225,11 @@ impl Ctx<'_> {
 
     /// Offset of `key =` inside `span`, if written there.
     fn find_key(&self, span: &Range<usize>, key: &str) -> Option<usize> {
+        // An empty key (`"" = 1`, found by fuzzing) would match everywhere
+        // without advancing.
+        if key.is_empty() {
+            return None;
+        }
         let end = span.end.min(self.text.len());
         let start = span.start.min(end);
         let region = &self.text[start..end];
@@ -728,6 +746,13 @@ impl Ctx<'_> {
                 for v in vertices {
                     positions.push(self.finite3(span, "vertices", *v)?);
                 }
+                if super::mesh_io::is_degenerate([positions[0], positions[1], positions[2]]) {
+                    return Err(self.field_error(
+                        span,
+                        "vertices",
+                        "the triangle has no area (collinear vertices)",
+                    ));
+                }
                 let uvs = match &sd.uvs {
                     Some(uvs) if uvs.len() == 3 => {
                         Some(uvs.iter().map(|&u| Vec2::from(u)).collect())
@@ -767,6 +792,15 @@ impl Ctx<'_> {
                     * Quat::from_rotation_x(r.x.to_radians());
                 if sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some() {
                     mesh.transform(&Mat4::from_scale_rotation_translation(scale, rotation, t));
+                    // A very uneven scale can flatten triangles to lines.
+                    super::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
+                    if mesh.indices.is_empty() {
+                        return Err(self.field_error(
+                            span,
+                            "scale",
+                            "every triangle of the mesh is degenerate once transformed",
+                        ));
+                    }
                 }
                 Geometry::Mesh(mesh)
             }
@@ -855,6 +889,14 @@ mod tests {
     }
 
     #[test]
+    fn empty_keys_are_unknown_fields() {
+        for text in ["\"\" = 1\n", "[camera]\n\"\" = \"\"\n"] {
+            let e = err(text);
+            assert!(e.message.contains("unknown field ``"), "{e}");
+        }
+    }
+
+    #[test]
     fn wrong_type_is_located() {
         let e = err("[camera]\neye = [0, 1, 3]\ntarget = \"up\"\n");
         assert_eq!(e.location.map(|l| l.0), Some(3), "{e}");
@@ -886,6 +928,18 @@ mod tests {
             "{e}"
         );
         assert_eq!(e.location.map(|l| l.0), Some(6));
+    }
+
+    #[test]
+    fn collinear_triangle_is_rejected() {
+        let e = err(&format!(
+            "{MINIMAL}[[shapes]]\ntype = \"triangle\"\nvertices = [[0,0,0],[1,1,1],[2,2,2]]\n"
+        ));
+        assert_eq!(e.location.map(|l| l.0), Some(6), "{e}");
+        assert!(
+            e.message.contains("`vertices`: the triangle has no area"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -16,7 +16,9 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// Why a mesh file could not be loaded. Every message starts with the path,
-/// then the line for text formats (`bunny.ply:12: ...`).
+/// then the place: line and column in text (`bunny.ply:12:7: ...`), the byte
+/// offset in a binary body (`bunny.ply: byte 4096: ...`; of the decompressed
+/// data for a gzipped file).
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
     #[error("{}: {source}", .path.display())]
@@ -24,10 +26,17 @@ pub enum MeshError {
         path: PathBuf,
         source: std::io::Error,
     },
-    #[error("{}:{line}: {msg}", .path.display())]
+    #[error("{}:{line}:{column}: {msg}", .path.display())]
     AtLine {
         path: PathBuf,
         line: usize,
+        column: usize,
+        msg: String,
+    },
+    #[error("{}: byte {offset}: {msg}", .path.display())]
+    AtByte {
+        path: PathBuf,
+        offset: usize,
         msg: String,
     },
     #[error("{}: {msg}", .path.display())]
@@ -37,6 +46,16 @@ pub enum MeshError {
 /// Loads a `.ply`, `.ply.gz`, `.obj` or `.obj.gz` file (gzip is recognised by
 /// its magic bytes, whatever the name).
 pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
+    let data = std::fs::read(path).map_err(|source| MeshError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_mesh(&data, path)
+}
+
+/// Parses the contents of a mesh file; `path` picks the format by its
+/// extension, as in [`load_mesh`], and names the file in errors.
+pub fn parse_mesh(data: &[u8], path: &Path) -> Result<Mesh, MeshError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
@@ -52,65 +71,77 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
             msg: "unsupported mesh format: expected a .ply, .ply.gz or .obj file".into(),
         });
     };
-    let data = read_file(path)?;
-    parse(&data).map_err(|f| f.at(path))
-}
-
-fn read_file(path: &Path) -> Result<Vec<u8>, MeshError> {
-    let io = |source| MeshError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let data = std::fs::read(path).map_err(io)?;
     if !data.starts_with(&[0x1f, 0x8b]) {
-        return Ok(data);
+        return parse(data).map_err(|f| f.at(path));
     }
     let mut out = Vec::with_capacity(data.len() * 4);
-    flate2::read::MultiGzDecoder::new(&data[..])
+    flate2::read::MultiGzDecoder::new(data)
         .read_to_end(&mut out)
         .map_err(|e| MeshError::Invalid {
             path: path.to_path_buf(),
             msg: format!("gzip: {e}"),
         })?;
-    Ok(out)
+    parse(&out).map_err(|f| f.at(path))
+}
+
+/// Where in a file a failure is.
+#[derive(Clone, Copy, Debug)]
+enum Loc {
+    /// 1-based line and column (in bytes) of text.
+    Text(usize, usize),
+    /// Offset from the start of the file.
+    Byte(usize),
 }
 
 /// A parse failure before the path is attached.
 #[derive(Debug)]
 struct Fail {
-    line: Option<usize>,
+    at: Option<Loc>,
     msg: String,
 }
 
 impl Fail {
     fn at(self, path: &Path) -> MeshError {
         let path = path.to_path_buf();
-        match self.line {
-            Some(line) => MeshError::AtLine {
+        let msg = self.msg;
+        match self.at {
+            Some(Loc::Text(line, column)) => MeshError::AtLine {
                 path,
                 line,
-                msg: self.msg,
+                column,
+                msg,
             },
-            None => MeshError::Invalid {
-                path,
-                msg: self.msg,
-            },
+            Some(Loc::Byte(offset)) => MeshError::AtByte { path, offset, msg },
+            None => MeshError::Invalid { path, msg },
         }
     }
 }
 
+/// A failure about the whole file, with no one place to point at.
 fn fail(msg: impl Into<String>) -> Fail {
     Fail {
-        line: None,
+        at: None,
         msg: msg.into(),
     }
 }
 
-fn fail_at(line: usize, msg: impl Into<String>) -> Fail {
+fn fail_at(line: usize, column: usize, msg: impl Into<String>) -> Fail {
     Fail {
-        line: Some(line),
+        at: Some(Loc::Text(line, column)),
         msg: msg.into(),
     }
+}
+
+fn fail_byte(offset: usize, msg: impl Into<String>) -> Fail {
+    Fail {
+        at: Some(Loc::Byte(offset)),
+        msg: msg.into(),
+    }
+}
+
+/// 1-based column of `word`, a slice of `line`.
+fn column(line: &str, word: &str) -> usize {
+    word.as_ptr() as usize - line.as_ptr() as usize + 1
 }
 
 /// A token for an error message: lossy UTF-8, cut short when long.
@@ -244,7 +275,7 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
     let mut elements: Vec<Element> = Vec::new();
     loop {
         if pos >= data.len() {
-            return Err(fail_at(line.max(1), "header has no `end_header` line"));
+            return Err(fail_at(line.max(1), 1, "header has no `end_header` line"));
         }
         let end = data[pos..]
             .iter()
@@ -253,30 +284,38 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
         let raw = &data[pos..end];
         pos = end + 1;
         line += 1;
-        let Ok(text) = std::str::from_utf8(raw) else {
-            return Err(fail_at(
+        let text = std::str::from_utf8(raw).map_err(|e| {
+            fail_at(
                 line,
+                e.valid_up_to() + 1,
                 "header line is not text (is the `end_header` line missing?)",
-            ));
-        };
+            )
+        })?;
         let mut words = text.split_ascii_whitespace();
+        let at = |word: Option<&str>| word.map_or(1, |w| column(text, w));
         let kw = words.next();
         if line == 1 {
             if kw != Some("ply") || words.next().is_some() {
-                return Err(fail_at(1, "not a PLY file: the first line must be `ply`"));
+                return Err(fail_at(
+                    1,
+                    1,
+                    "not a PLY file: the first line must be `ply`",
+                ));
             }
             continue;
         }
         let Some(kw) = kw else { continue };
         match kw {
             "format" => {
-                format = Some(match words.next() {
+                let word = words.next();
+                format = Some(match word {
                     Some("ascii") => Format::Ascii,
                     Some("binary_little_endian") => Format::BinaryLe,
                     Some("binary_big_endian") => Format::BinaryBe,
                     other => {
                         return Err(fail_at(
                             line,
+                            at(word),
                             format!("unsupported PLY format `{}`", other.unwrap_or("")),
                         ))
                     }
@@ -285,11 +324,12 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
             "comment" | "obj_info" => {}
             "element" => {
                 let (Some(name), Some(count)) = (words.next(), words.next()) else {
-                    return Err(fail_at(line, "expected `element <name> <count>`"));
+                    return Err(fail_at(line, 1, "expected `element <name> <count>`"));
                 };
                 let count = count.parse::<usize>().map_err(|_| {
                     fail_at(
                         line,
+                        column(text, count),
                         format!("element `{name}`: expected a count, found `{count}`"),
                     )
                 })?;
@@ -302,25 +342,34 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
             }
             "property" => {
                 let Some(el) = elements.last_mut() else {
-                    return Err(fail_at(line, "`property` before any `element`"));
+                    return Err(fail_at(line, 1, "`property` before any `element`"));
                 };
                 let ty = |s: Option<&str>| {
-                    let s = s.unwrap_or("");
-                    Ty::parse(s)
-                        .ok_or_else(|| fail_at(line, format!("unknown property type `{s}`")))
+                    Ty::parse(s.unwrap_or("")).ok_or_else(|| {
+                        fail_at(
+                            line,
+                            at(s),
+                            format!("unknown property type `{}`", s.unwrap_or("")),
+                        )
+                    })
                 };
                 let first = words.next();
                 let kind = if first == Some("list") {
-                    let count = ty(words.next())?;
+                    let word = words.next();
+                    let count = ty(word)?;
                     if count.is_float() {
-                        return Err(fail_at(line, "a list count must have an integer type"));
+                        return Err(fail_at(
+                            line,
+                            at(word),
+                            "a list count must have an integer type",
+                        ));
                     }
                     Kind::List(count, ty(words.next())?)
                 } else {
                     Kind::Scalar(ty(first)?)
                 };
                 let Some(name) = words.next() else {
-                    return Err(fail_at(line, "property has no name"));
+                    return Err(fail_at(line, 1, "property has no name"));
                 };
                 el.props.push(Property {
                     name: name.to_string(),
@@ -329,10 +378,10 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
                 });
             }
             "end_header" => break,
-            _ => return Err(fail_at(line, format!("unknown header keyword `{kw}`"))),
+            _ => return Err(fail_at(line, 1, format!("unknown header keyword `{kw}`"))),
         }
     }
-    let format = format.ok_or_else(|| fail_at(2, "header has no `format` line"))?;
+    let format = format.ok_or_else(|| fail_at(2, 1, "header has no `format` line"))?;
     Ok(Header {
         format,
         elements,
@@ -353,8 +402,9 @@ enum Role {
     Indices,
 }
 
-/// Per element, the role of each property.
-fn plan(elements: &[Element]) -> Result<(Vec<Vec<Role>>, bool), Fail> {
+/// Per element, the role of each property. `end_line` is the line of
+/// `end_header`, where a missing element is reported.
+fn plan(elements: &[Element], end_line: usize) -> Result<(Vec<Vec<Role>>, bool), Fail> {
     let mut roles: Vec<Vec<Role>> = elements
         .iter()
         .map(|e| vec![Role::Skip; e.props.len()])
@@ -362,21 +412,30 @@ fn plan(elements: &[Element]) -> Result<(Vec<Vec<Role>>, bool), Fail> {
     let vi = elements
         .iter()
         .position(|e| e.name == "vertex")
-        .ok_or_else(|| fail("the header declares no `vertex` element"))?;
+        .ok_or_else(|| fail_at(end_line, 1, "the header declares no `vertex` element"))?;
     let fi = elements
         .iter()
         .position(|e| e.name == "face")
         .ok_or_else(|| {
-            fail("the header declares no `face` element (a point cloud is not a mesh)")
+            fail_at(
+                end_line,
+                1,
+                "the header declares no `face` element (a point cloud is not a mesh)",
+            )
         })?;
     let vertex = &elements[vi];
     if vertex.count > u32::MAX as usize {
-        return Err(fail_at(vertex.line, "too many vertices for 32-bit indices"));
+        return Err(fail_at(
+            vertex.line,
+            1,
+            "too many vertices for 32-bit indices",
+        ));
     }
     let find = |name: &str| -> Result<Option<usize>, Fail> {
         match vertex.props.iter().position(|p| p.name == name) {
             Some(i) if matches!(vertex.props[i].kind, Kind::List(..)) => Err(fail_at(
                 vertex.props[i].line,
+                1,
                 format!("vertex property `{name}` must be a scalar, not a list"),
             )),
             other => Ok(other),
@@ -386,6 +445,7 @@ fn plan(elements: &[Element]) -> Result<(Vec<Vec<Role>>, bool), Fail> {
         let i = find(name)?.ok_or_else(|| {
             fail_at(
                 vertex.line,
+                1,
                 format!("the `vertex` element has no `{name}` property"),
             )
         })?;
@@ -413,6 +473,7 @@ fn plan(elements: &[Element]) -> Result<(Vec<Vec<Role>>, bool), Fail> {
         .ok_or_else(|| {
             fail_at(
                 face.line,
+                1,
                 "the `face` element has no `vertex_indices` (or `vertex_index`) property",
             )
         })?;
@@ -421,6 +482,7 @@ fn plan(elements: &[Element]) -> Result<(Vec<Vec<Role>>, bool), Fail> {
         _ => {
             return Err(fail_at(
                 face.props[i].line,
+                1,
                 format!(
                     "face property `{}` must be a list of integers",
                     face.props[i].name
@@ -433,18 +495,18 @@ fn plan(elements: &[Element]) -> Result<(Vec<Vec<Role>>, bool), Fail> {
 
 fn parse_ply(data: &[u8]) -> Result<Mesh, Fail> {
     let header = parse_header(data)?;
-    let (roles, has_uv) = plan(&header.elements)?;
+    let (roles, has_uv) = plan(&header.elements, header.body_line - 1)?;
     let body = &data[header.body..];
     let nv = header
         .elements
         .iter()
         .find(|e| e.name == "vertex")
         .map_or(0, |e| e.count);
-    let nf = header
+    let (nf, face_line) = header
         .elements
         .iter()
         .find(|e| e.name == "face")
-        .map_or(0, |e| e.count);
+        .map_or((0, 1), |e| (e.count, e.line));
     // Counts come from the file; never reserve more than the body could hold.
     let mut out = Builder {
         positions: Vec::with_capacity(nv.min(body.len() / 3)),
@@ -455,11 +517,17 @@ fn parse_ply(data: &[u8]) -> Result<Mesh, Fail> {
     };
     match header.format {
         Format::Ascii => ascii_body(body, header.body_line, &header.elements, &roles, &mut out)?,
-        Format::BinaryLe => binary_body::<false>(body, &header.elements, &roles, &mut out)?,
-        Format::BinaryBe => binary_body::<true>(body, &header.elements, &roles, &mut out)?,
+        Format::BinaryLe => {
+            binary_body::<false>(data, header.body, &header.elements, &roles, &mut out)?
+        }
+        Format::BinaryBe => {
+            binary_body::<true>(data, header.body, &header.elements, &roles, &mut out)?
+        }
     }
+    let triangles = out.indices.len();
+    drop_degenerate(&out.positions, &mut out.indices);
     if out.indices.is_empty() {
-        return Err(fail("the file has no faces"));
+        return Err(fail_at(face_line, 1, no_faces(triangles)));
     }
     Ok(Mesh {
         positions: out.positions,
@@ -512,6 +580,10 @@ struct Tokens<'a> {
     data: &'a [u8],
     pos: usize,
     line: usize,
+    /// Offset of the current line's first byte.
+    line_start: usize,
+    /// Offset of the last token (of the end, once there are no more).
+    start: usize,
 }
 
 impl<'a> Tokens<'a> {
@@ -522,19 +594,31 @@ impl<'a> Tokens<'a> {
         while i < d.len() && d[i].is_ascii_whitespace() {
             if d[i] == b'\n' {
                 self.line += 1;
+                self.line_start = i + 1;
             }
             i += 1;
         }
+        self.start = i;
         if i == d.len() {
             self.pos = i;
             return None;
         }
-        let start = i;
         while i < d.len() && !d[i].is_ascii_whitespace() {
             i += 1;
         }
         self.pos = i;
-        Some(&d[start..i])
+        Some(&d[self.start..i])
+    }
+
+    /// Line and column of the last token.
+    fn loc(&self) -> (usize, usize) {
+        (self.line, self.start - self.line_start + 1)
+    }
+
+    /// A failure at the last token.
+    fn fail(&self, msg: impl Into<String>) -> Fail {
+        let (line, column) = self.loc();
+        fail_at(line, column, msg)
     }
 }
 
@@ -642,22 +726,27 @@ fn ascii_body<'a>(
         data,
         pos: 0,
         line: first_line,
+        line_start: 0,
+        start: 0,
     };
     for (el, roles) in elements.iter().zip(roles) {
+        // Records without properties take no text: a count of 1e19 (found by
+        // fuzzing) would otherwise loop over nothing for ever.
+        if el.props.is_empty() {
+            continue;
+        }
         let is_vertex = roles.contains(&Role::Value(0));
         for r in 0..el.count {
             let mut v = [0f32; 5];
-            let mut line = 0;
+            // Where the record's values start, for a non-finite vertex.
+            let mut at = None;
             for (prop, &role) in el.props.iter().zip(roles) {
                 let word = |t: &mut Tokens<'a>| -> Result<&'a [u8], Fail> {
                     t.next().ok_or_else(|| {
-                        fail_at(
-                            t.line,
-                            format!(
-                                "file ends early: {} {r} of {}, property `{}` is missing",
-                                el.name, el.count, prop.name
-                            ),
-                        )
+                        t.fail(format!(
+                            "file ends early: {} {r} of {}, property `{}` is missing",
+                            el.name, el.count, prop.name
+                        ))
                     })
                 };
                 match (prop.kind, role) {
@@ -666,58 +755,52 @@ fn ascii_body<'a>(
                     }
                     (Kind::Scalar(ty), Role::Value(c)) => {
                         let w = word(&mut t)?;
-                        line = t.line;
+                        at.get_or_insert(t.loc());
                         v[c] = parse_float(w, ty).ok_or_else(|| {
-                            fail_at(
-                                t.line,
-                                format!(
-                                    "{} property `{}`: expected a number, found `{}`",
-                                    el.name,
-                                    prop.name,
-                                    show(w)
-                                ),
-                            )
+                            t.fail(format!(
+                                "{} property `{}`: expected a number, found `{}`",
+                                el.name,
+                                prop.name,
+                                show(w)
+                            ))
                         })?;
                     }
                     (Kind::List(..), role) => {
                         let w = word(&mut t)?;
                         let n = parse_int(w).filter(|&n| n >= 0).ok_or_else(|| {
-                            fail_at(
-                                t.line,
-                                format!(
-                                    "{} property `{}`: expected a list length, found `{}`",
-                                    el.name,
-                                    prop.name,
-                                    show(w)
-                                ),
-                            )
+                            t.fail(format!(
+                                "{} property `{}`: expected a list length, found `{}`",
+                                el.name,
+                                prop.name,
+                                show(w)
+                            ))
                         })?;
                         for _ in 0..n {
                             let w = word(&mut t)?;
                             if role == Role::Indices {
                                 let i = parse_int(w).ok_or_else(|| {
-                                    fail_at(
-                                        t.line,
-                                        format!(
-                                            "{} property `{}`: expected an integer, found `{}`",
-                                            el.name,
-                                            prop.name,
-                                            show(w)
-                                        ),
-                                    )
+                                    t.fail(format!(
+                                        "{} property `{}`: expected an integer, found `{}`",
+                                        el.name,
+                                        prop.name,
+                                        show(w)
+                                    ))
                                 })?;
-                                out.index(i, r).map_err(|m| fail_at(t.line, m))?;
+                                out.index(i, r).map_err(|m| t.fail(m))?;
                             }
                         }
                         if role == Role::Indices {
-                            out.end_face(r).map_err(|m| fail_at(t.line, m))?;
+                            out.end_face(r).map_err(|m| t.fail(m))?;
                         }
                     }
                     (Kind::Scalar(_), Role::Indices) => unreachable!("checked by plan"),
                 }
             }
             if is_vertex {
-                out.vertex(v).map_err(|m| fail_at(line, m))?;
+                out.vertex(v).map_err(|m| {
+                    let (line, column) = at.unwrap_or(t.loc());
+                    fail_at(line, column, m)
+                })?;
             }
         }
     }
@@ -762,21 +845,26 @@ fn get_int<const BE: bool>(b: &[u8], ty: Ty) -> i64 {
     }
 }
 
+/// Reads the binary body of `data`, which starts at offset `body`.
 fn binary_body<const BE: bool>(
     data: &[u8],
+    body: usize,
     elements: &[Element],
     roles: &[Vec<Role>],
     out: &mut Builder,
 ) -> Result<(), Fail> {
-    let mut pos = 0usize;
+    let mut pos = body;
     for (el, roles) in elements.iter().zip(roles) {
         let truncated = |r: usize, pos: usize| {
-            fail(format!(
-                "file ends early: {} {r} of {} is cut off (binary body, byte {pos} of {})",
-                el.name,
-                el.count,
-                data.len()
-            ))
+            fail_byte(
+                pos,
+                format!(
+                    "file ends early: {} {r} of {} is cut off ({} bytes in all)",
+                    el.name,
+                    el.count,
+                    data.len()
+                ),
+            )
         };
         let is_vertex = roles.contains(&Role::Value(0));
         if let Some(stride) = el.props.iter().try_fold(0usize, |s, p| match p.kind {
@@ -805,7 +893,7 @@ fn binary_body<const BE: bool>(
                 }
                 if stride > 0 {
                     let all_f32 = fields.iter().all(|f| f.1 == Ty::F32);
-                    for rec in data[pos..pos + need].chunks_exact(stride) {
+                    for (k, rec) in data[pos..pos + need].chunks_exact(stride).enumerate() {
                         let mut v = [0f32; 5];
                         if all_f32 {
                             for &(o, _, c) in &fields {
@@ -816,7 +904,7 @@ fn binary_body<const BE: bool>(
                                 v[c] = get::<BE>(&rec[o..], ty) as f32;
                             }
                         }
-                        out.vertex(v).map_err(fail)?;
+                        out.vertex(v).map_err(|m| fail_byte(pos + k * stride, m))?;
                     }
                 }
             }
@@ -825,6 +913,7 @@ fn binary_body<const BE: bool>(
         }
         // Records with lists.
         for r in 0..el.count {
+            let record = pos;
             let mut v = [0f32; 5];
             for (p, &role) in el.props.iter().zip(roles) {
                 match p.kind {
@@ -843,41 +932,46 @@ fn binary_body<const BE: bool>(
                             .ok_or_else(|| truncated(r, pos))?;
                         let n = get_int::<BE>(b, ct);
                         if n < 0 {
-                            return Err(fail(format!(
-                                "{} {r}: property `{}` has negative length {n}",
-                                el.name, p.name
-                            )));
+                            return Err(fail_byte(
+                                pos,
+                                format!(
+                                    "{} {r}: property `{}` has negative length {n}",
+                                    el.name, p.name
+                                ),
+                            ));
                         }
                         pos += ct.size();
                         let items = (n as usize)
                             .checked_mul(it.size())
                             .and_then(|len| data.get(pos..pos.checked_add(len)?))
                             .ok_or_else(|| truncated(r, pos))?;
-                        let len = items.len();
-                        pos += len;
+                        let at = pos;
+                        pos += items.len();
                         if role == Role::Indices {
+                            let size = it.size();
+                            let bad = |k: usize| move |m| fail_byte(at + k * size, m);
                             if it == Ty::I32 || it == Ty::U32 {
-                                for c in items.chunks_exact(4) {
+                                for (k, c) in items.chunks_exact(4).enumerate() {
                                     let b = bytes::<4, BE>(c);
                                     let i = if it == Ty::I32 {
                                         i32::from_le_bytes(b) as i64
                                     } else {
                                         u32::from_le_bytes(b) as i64
                                     };
-                                    out.index(i, r).map_err(fail)?;
+                                    out.index(i, r).map_err(bad(k))?;
                                 }
                             } else {
-                                for c in items.chunks_exact(it.size()) {
-                                    out.index(get_int::<BE>(c, it), r).map_err(fail)?;
+                                for (k, c) in items.chunks_exact(size).enumerate() {
+                                    out.index(get_int::<BE>(c, it), r).map_err(bad(k))?;
                                 }
                             }
-                            out.end_face(r).map_err(fail)?;
+                            out.end_face(r).map_err(|m| fail_byte(record, m))?;
                         }
                     }
                 }
             }
             if is_vertex {
-                out.vertex(v).map_err(fail)?;
+                out.vertex(v).map_err(|m| fail_byte(record, m))?;
             }
         }
     }
@@ -888,13 +982,22 @@ fn binary_body<const BE: bool>(
 // OBJ
 
 fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
+    let text = std::str::from_utf8(data).map_err(|e| {
+        let valid = &data[..e.valid_up_to()];
+        let line_start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
+        fail_at(
+            valid.iter().filter(|&&b| b == b'\n').count() + 1,
+            valid.len() - line_start + 1,
+            "the file is not UTF-8 text",
+        )
+    })?;
     // Single index, fan-triangulated, points and lines dropped.
     let opts = tobj::GPU_LOAD_OPTIONS;
     // Materials are not used; don't go looking for the .mtl file.
-    let (models, _) = tobj::load_obj_buf(&mut &data[..], &opts, |_| {
+    let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
         Ok((Vec::new(), Default::default()))
     })
-    .map_err(|e| locate_obj_problem(data).unwrap_or_else(|| fail(format!("OBJ: {e}"))))?;
+    .map_err(|e| locate_obj_problem(text).unwrap_or_else(|| fail(format!("OBJ: {e}"))))?;
     let with_uv = models.iter().any(|m| !m.mesh.texcoords.is_empty())
         && models
             .iter()
@@ -921,7 +1024,8 @@ fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
         for t in m.indices.chunks_exact(3) {
             let tri = [t[0], t[1], t[2]];
             if tri.iter().any(|&i| i as usize >= n) {
-                return Err(fail("OBJ: face vertex index out of range"));
+                return Err(locate_obj_problem(text)
+                    .unwrap_or_else(|| fail("OBJ: face vertex index out of range")));
             }
             mesh.indices.push(tri.map(|i| i + base as u32));
         }
@@ -938,18 +1042,55 @@ fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
     if let Some(i) = bad {
         let uv = mesh.uvs.as_ref().map(|u| u[i]);
         let msg = check_finite(mesh.positions[i], uv, i).unwrap_err();
-        return Err(locate_obj_problem(data).unwrap_or_else(|| fail(msg)));
+        return Err(locate_obj_problem(text).unwrap_or_else(|| fail(msg)));
     }
+    let triangles = mesh.indices.len();
+    drop_degenerate(&mesh.positions, &mut mesh.indices);
     if mesh.indices.is_empty() {
-        return Err(fail("the file has no faces"));
+        // tobj drops malformed faces silently: name the first one if any,
+        // else point at the end of the file, where faces were still expected.
+        let line_start = text.rfind('\n').map_or(0, |i| i + 1);
+        let at_end = fail_at(
+            text.matches('\n').count() + 1,
+            text.len() - line_start + 1,
+            no_faces(triangles),
+        );
+        return Err(match triangles {
+            0 => locate_obj_problem(text).unwrap_or(at_end),
+            _ => at_end,
+        });
     }
     Ok(mesh)
 }
 
+fn no_faces(triangles: usize) -> String {
+    match triangles {
+        0 => "the file has no faces".into(),
+        n => format!("all {n} triangles are degenerate (collinear vertices)"),
+    }
+}
+
+/// Whether the triangle's vertices are collinear to f32 precision: a
+/// repeated vertex, or |e1 × e2| ≤ 1e-6 |e1| |e2| (an angle under 1e-6 rad
+/// at `a`). Such a triangle has no area to render and no reliable normal,
+/// yet intersection tests still report hits on it: the extremes suite
+/// measured zero or random normals and self-hits on both backends when a
+/// mesh kept them.
+pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
+    // In f64, so no finite f32 coordinates overflow.
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let (e1, e2) = (b - a, c - a);
+    e1.cross(e2).length() <= 1e-6 * e1.length() * e2.length()
+}
+
+/// Drops the degenerate triangles (see [`is_degenerate`]).
+pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) {
+    indices.retain(|t| !is_degenerate(t.map(|i| positions[i as usize])));
+}
+
 /// Finds the line of the first malformed or out-of-range `v`, `vt` or `f`
 /// statement, for the error message (`tobj` does not report lines).
-fn locate_obj_problem(data: &[u8]) -> Option<Fail> {
-    let text = String::from_utf8_lossy(data);
+fn locate_obj_problem(text: &str) -> Option<Fail> {
     let (mut nv, mut nvt) = (0i64, 0i64);
     for (no, line) in text.lines().enumerate() {
         let no = no + 1;
@@ -961,12 +1102,14 @@ fn locate_obj_problem(data: &[u8]) -> Option<Fail> {
                     Ok(_) => {
                         return Some(fail_at(
                             no,
+                            column(line, w),
                             format!("{what} {k}: must be finite, got `{w}`"),
                         ))
                     }
                     Err(_) => {
                         return Some(fail_at(
                             no,
+                            column(line, w),
                             format!(
                                 "{what} {k}: expected a number, found `{}`",
                                 show(w.as_bytes())
@@ -980,7 +1123,7 @@ fn locate_obj_problem(data: &[u8]) -> Option<Fail> {
         match words.next() {
             Some("v") => {
                 if line.split_ascii_whitespace().count() < 4 {
-                    return Some(fail_at(no, "vertex position needs 3 numbers"));
+                    return Some(fail_at(no, 1, "vertex position needs 3 numbers"));
                 }
                 if let Some(f) = floats(words, "vertex coordinate", 3) {
                     return Some(f);
@@ -996,7 +1139,7 @@ fn locate_obj_problem(data: &[u8]) -> Option<Fail> {
             Some("f") => {
                 let corners: Vec<&str> = words.collect();
                 if corners.len() < 3 {
-                    return Some(fail_at(no, "a face needs at least 3 vertices"));
+                    return Some(fail_at(no, 1, "a face needs at least 3 vertices"));
                 }
                 for c in corners {
                     let mut parts = c.split('/');
@@ -1011,6 +1154,7 @@ fn locate_obj_problem(data: &[u8]) -> Option<Fail> {
                         if ok.is_none() {
                             return Some(fail_at(
                                 no,
+                                column(line, p),
                                 format!(
                                     "face: {what} index `{}` is out of range ({count} so far)",
                                     show(p.as_bytes())
@@ -1275,34 +1419,34 @@ end_header\r
         let e = err("e.ply", ply("0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n").as_bytes());
         assert_eq!(
             e,
-            ":11: vertex property `y`: expected a number, found `abc`"
+            ":11:3: vertex property `y`: expected a number, found `abc`"
         );
         let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 1 x\n").as_bytes());
         assert!(
-            e.starts_with(":13: face property `vertex_indices`: expected an integer"),
+            e.starts_with(":13:7: face property `vertex_indices`: expected an integer"),
             "{e}"
         );
         let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n").as_bytes());
         assert_eq!(
             e,
-            ":13: face 0: vertex index 3 is out of range (3 vertices)"
+            ":13:7: face 0: vertex index 3 is out of range (3 vertices)"
         );
         let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n").as_bytes());
         assert!(e.contains("vertex index -1 is out of range"), "{e}");
         let e = err("e.ply", ply("0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n").as_bytes());
         assert!(
-            e.starts_with(":11: vertex 1: coordinates must be finite"),
+            e.starts_with(":11:1: vertex 1: coordinates must be finite"),
             "{e}"
         );
         let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 inf\n3 0 1 2\n").as_bytes());
         assert!(
-            e.starts_with(":12: vertex 2: coordinates must be finite"),
+            e.starts_with(":12:1: vertex 2: coordinates must be finite"),
             "{e}"
         );
         let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n3 0 1").as_bytes());
-        assert!(e.starts_with(":13: file ends early: face 0 of 1"), "{e}");
+        assert!(e.starts_with(":13:6: file ends early: face 0 of 1"), "{e}");
         let e = err("e.ply", ply("0 0 0\n1 0 0\n0 1 0\n2 0 1\n").as_bytes());
-        assert!(e.contains(":13: face 0 has 2 vertices"), "{e}");
+        assert!(e.contains(":13:5: face 0 has 2 vertices"), "{e}");
     }
 
     #[test]
@@ -1313,14 +1457,14 @@ end_header\r
             "h.ply",
             b"ply\nformat binary_middle_endian 1.0\nend_header\n",
         );
-        assert_eq!(e, ":2: unsupported PLY format `binary_middle_endian`");
+        assert_eq!(e, ":2:8: unsupported PLY format `binary_middle_endian`");
         let e = err("h.ply", b"solid cube\nend_header\n");
-        assert!(e.starts_with(":1: not a PLY file"), "{e}");
+        assert!(e.starts_with(":1:1: not a PLY file"), "{e}");
         let e = err(
             "h.ply",
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty flt x\nend_header\n",
         );
-        assert_eq!(e, ":4: unknown property type `flt`");
+        assert_eq!(e, ":4:10: unknown property type `flt`");
         let e = err(
             "h.ply",
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nend_header\n0\n",
@@ -1331,7 +1475,7 @@ end_header\r
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nelement face 0\nproperty list uchar int vertex_indices\nend_header\n0 0\n",
         );
         assert!(
-            e.contains(":3: the `vertex` element has no `z` property"),
+            e.contains(":3:1: the `vertex` element has no `z` property"),
             "{e}"
         );
         let e = err("h.stl", b"solid\n");
@@ -1342,12 +1486,27 @@ end_header\r
     }
 
     #[test]
+    fn elements_without_properties_take_no_time() {
+        let text = ply("0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n").replace(
+            "end_header",
+            "element nothing 18000000000000000000\nend_header",
+        );
+        let m = load_str("e.ply", &text).unwrap();
+        assert_eq!(m.indices, vec![[0, 1, 2]]);
+    }
+
+    #[test]
     fn zero_faces_is_an_error() {
         let text = ply("0 0 0\n1 0 0\n0 1 0\n").replace("face 1", "face 0");
         let e = err("z.ply", text.as_bytes());
-        assert_eq!(e, ": the file has no faces");
+        assert_eq!(e, ":7:1: the file has no faces");
         let e = err("z.obj", b"v 0 0 0\nv 1 0 0\n");
-        assert_eq!(e, ": the file has no faces");
+        assert_eq!(e, ":3:1: the file has no faces");
+        let e = err("d.ply", ply("0 0 0\n1 0 0\n2 0 0\n3 0 1 2\n").as_bytes());
+        assert_eq!(
+            e,
+            ":7:1: all 1 triangles are degenerate (collinear vertices)"
+        );
     }
 
     #[test]
@@ -1355,7 +1514,10 @@ end_header\r
         for be in [false, true] {
             for cut in [1, 5, 20, 60, 150, 200] {
                 let e = err("t.ply", &binary_example(be, cut));
-                assert!(e.starts_with(": file ends early"), "{e}");
+                assert!(
+                    e.starts_with(": byte ") && e.contains(": file ends early"),
+                    "{e}"
+                );
             }
         }
         let e = err("t.ply", &binary_example(false, 60));
@@ -1365,15 +1527,20 @@ end_header\r
         let at = data.len() - 9 - 4 - 4;
         data[at..at + 4].copy_from_slice(&9i32.to_le_bytes());
         let e = err("t.ply", &data);
-        assert_eq!(e, ": face 1: vertex index 9 is out of range (5 vertices)");
+        assert_eq!(
+            e,
+            format!(": byte {at}: face 1: vertex index 9 is out of range (5 vertices)")
+        );
         // A NaN x in vertex 1.
         let mut data = binary_example(false, 0);
         let body = data.windows(10).position(|w| w == b"end_header").unwrap() + 12;
-        let at = body + 4 + 8 + 4 + 1 + 8 + 8;
-        data[at..at + 4].copy_from_slice(&f32::NAN.to_le_bytes());
+        let record = body + 4 + 8 + 4 + 1 + 8 + 8;
+        data[record..record + 4].copy_from_slice(&f32::NAN.to_le_bytes());
         let e = err("t.ply", &data);
         assert!(
-            e.starts_with(": vertex 1: coordinates must be finite"),
+            e.starts_with(&format!(
+                ": byte {record}: vertex 1: coordinates must be finite"
+            )),
             "{e}"
         );
     }
@@ -1382,17 +1549,17 @@ end_header\r
     fn obj_errors_name_the_line() {
         let e = err("o.obj", b"v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n");
         assert!(
-            e.starts_with(":2: vertex coordinate 1: expected a number, found `x`"),
+            e.starts_with(":2:5: vertex coordinate 1: expected a number, found `x`"),
             "{e}"
         );
         let e = err("o.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\nf 1 2 4\n");
         assert!(
-            e.starts_with(":5: face: vertex index `4` is out of range"),
+            e.starts_with(":5:7: face: vertex index `4` is out of range"),
             "{e}"
         );
         let e = err("o.obj", b"v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n");
         assert!(
-            e.starts_with(":2: vertex coordinate 2: must be finite"),
+            e.starts_with(":2:7: vertex coordinate 2: must be finite"),
             "{e}"
         );
     }

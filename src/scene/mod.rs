@@ -11,7 +11,7 @@ pub mod texture;
 
 pub use camera::Camera;
 pub use light::{LightSampler, PointLight};
-pub use load::{load, load_str, SceneError};
+pub use load::{load, load_bytes, load_str, SceneError};
 pub use material::Material;
 pub use shape::{Geometry, PrimHit, SurfacePoint};
 pub use texture::{Texture, UvTransform};
