@@ -358,7 +358,8 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let (width, height) = (scene.camera.width, scene.camera.height);
     let mut film = match &args.resume {
         Some(path) => resumed_film(path, &meta, (width, height))?,
-        None => Film::new(width, height),
+        None => Film::try_new(width, height)
+            .map_err(|e| Failure::input(format!("{}: resolution: {e}", args.scene.display())))?,
     };
     let resumed_samples = film.samples;
 

@@ -320,6 +320,32 @@ fn missing_scene_names_the_file() {
 }
 
 #[test]
+fn a_film_too_large_for_memory_is_refused_with_its_size() {
+    // 16384² pixels need 12.9 GB of sums; under the 1 GiB limit the
+    // allocation fails, which must end in a message, not an abort.
+    let dir = temp_dir("huge-film");
+    let path = dir.join("scene.toml");
+    let text = scene(None, false).replace("resolution = [8, 8]", "resolution = [16384, 16384]");
+    std::fs::write(&path, text).unwrap();
+    let output = dir.join("out.exr");
+    let out = luz_limited(&[
+        "render",
+        path.to_str().unwrap(),
+        "--quiet",
+        "-o",
+        output.to_str().unwrap(),
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("scene.toml: resolution: a 16384x16384 film needs 12.9 GB"),
+        "{stderr}"
+    );
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(!output.exists());
+}
+
+#[test]
 fn malformed_ply_files() {
     let dir = temp_dir("ply");
     let verts = triangle_vertices();

@@ -40,16 +40,36 @@ impl PixelSum {
 }
 
 impl Film {
+    /// An empty film. Panics when memory runs out; see [`Film::try_new`].
     pub fn new(width: u32, height: u32) -> Self {
+        Self::try_new(width, height).unwrap_or_else(|e| panic!("{e}"))
+    }
+
+    /// An empty film, or an error saying how much memory it needed when the
+    /// allocation fails: a scene may ask for 65536×65536 pixels (200 GB of
+    /// sums), which must end in a message, not an abort.
+    pub fn try_new(width: u32, height: u32) -> Result<Self, String> {
         let n = width as usize * height as usize;
-        Self {
+        let zeroed = || -> Option<Vec<[f64; 3]>> {
+            let mut v = Vec::new();
+            v.try_reserve_exact(n).ok()?;
+            v.resize(n, [0.0; 3]);
+            Some(v)
+        };
+        let too_large = || {
+            format!(
+                "a {width}x{height} film needs {:.1} GB of memory, which could not be allocated",
+                (2 * n * size_of::<[f64; 3]>()) as f64 / 1e9
+            )
+        };
+        Ok(Self {
             width,
             height,
             samples: 0,
-            sum: vec![[0.0; 3]; n],
-            sum_sq: vec![[0.0; 3]; n],
+            sum: zeroed().ok_or_else(too_large)?,
+            sum_sq: zeroed().ok_or_else(too_large)?,
             non_finite: 0,
-        }
+        })
     }
 
     /// Mean radiance per pixel.
