@@ -725,6 +725,13 @@ impl Report {
              the median over the sweep. Times to reach the target are interpolated on the \
              log-log curve of relMSE against time.\n\n",
         );
+        if self.settings.iter().any(|t| t.nee.is_some()) {
+            s.push_str(
+                "NEE on samples every emissive shape but infinite planes; NEE off finds area \
+                 lights only by hitting them. Point lights cannot be hit, so every setting \
+                 samples them.\n\n",
+            );
+        }
         let _ = writeln!(
             s,
             "| setting | time to relMSE {target:e} | vs fastest | efficiency | relMSE at {largest} spp | mean bias at {largest} spp |"
@@ -897,6 +904,53 @@ material = "floor"
         assert_eq!(t[0].label, "rust / depth 2");
         assert_eq!(t[7].label, "embree / high quality / depth 9");
         assert_eq!(t[7].build.embree_quality, EmbreeQuality::High);
+    }
+
+    #[test]
+    fn the_conclusion_ranks_settings_by_the_time_to_reach_the_target() {
+        let s = scene();
+        let settings = enumerate(
+            &s,
+            &[BackendKind::Rust],
+            &[Vary::Nee],
+            &[],
+            BuildOptions::default(),
+        );
+        // relMSE = 0.1 / time for NEE on, 0.3 / time for NEE off: the target
+        // 1e-2 is reached at 10 s and 30 s.
+        let rows = [(0, 0.1), (1, 0.3)]
+            .into_iter()
+            .flat_map(|(setting, c)| {
+                [(1u32, 1.0), (100, 100.0)].map(|(spp, time_s)| Row {
+                    setting,
+                    spp,
+                    build_s: 0.0,
+                    time_s,
+                    rmse: 0.0,
+                    rel_mse: c / time_s,
+                    mean_bias: 0.0,
+                    efficiency: 1.0 / c,
+                })
+            })
+            .collect();
+        let report = Report {
+            scene: "t.toml".into(),
+            width: 4,
+            height: 4,
+            threads: 1,
+            seed: 0,
+            reference: "a file".into(),
+            target_rel_mse: 1e-2,
+            settings,
+            rows,
+        };
+        assert_eq!(
+            report.conclusion(),
+            "fastest to relMSE 1e-2: rust / NEE on in 10.000 s; rust / NEE off 3.00x as long"
+        );
+        let md = report.markdown();
+        assert!(md.contains("| rust / NEE off | 30.000 s | 3.00× |"), "{md}");
+        assert!(md.contains("Point lights cannot be hit"), "{md}");
     }
 
     #[test]
