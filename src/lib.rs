@@ -8,3 +8,4 @@ pub mod math;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod study;

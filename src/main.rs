@@ -12,6 +12,8 @@ use luz::render::part::{self, Part, PartMeta};
 use luz::render::passes::{render_passes, Outcome};
 use luz::render::task::{self, Task};
 use luz::render::{Film, Progress, RenderOptions};
+use luz::scene::Scene;
+use luz::study::{ReferenceSource, Study, StudyOptions, Vary};
 use std::io::IsTerminal;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -56,6 +58,10 @@ enum Command {
     /// Merge renders of disjoint sample ranges of one scene (EXR files that
     /// `luz render` wrote) into the image of all their samples.
     Merge(MergeArgs),
+    /// Speed against accuracy: render a sweep of settings and sample counts,
+    /// compare each image with a reference, and write a CSV, a Markdown
+    /// summary and log-log plots of error against time.
+    Study(StudyArgs),
     /// Version, compiled backends and CPU features.
     Info,
 }
@@ -163,6 +169,64 @@ fn parse_interval(s: &str) -> Result<Interval, String> {
 }
 
 #[derive(clap::Args)]
+struct StudyArgs {
+    scene: PathBuf,
+    /// Directory for study.csv, summary.md and the plots (created).
+    #[arg(long, default_value = "study")]
+    out: PathBuf,
+    /// Samples per pixel of the sweep.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,16,32,64")]
+    spp: Vec<u32>,
+    /// Backends to compare (default: every backend of this build).
+    #[arg(long, value_delimiter = ',')]
+    backends: Vec<BackendKind>,
+    /// What to vary, every combination: nee (area lights; point lights are
+    /// always sampled), russian-roulette, max-depth, embree-quality,
+    /// embree-robust.
+    #[arg(long, value_delimiter = ',')]
+    vary: Vec<Vary>,
+    /// Depths of `--vary max-depth` (default 3,5,8).
+    #[arg(long, value_delimiter = ',')]
+    max_depths: Option<Vec<u32>>,
+    /// Reference image (default: rendered first, 16 times the largest spp,
+    /// with another seed).
+    #[arg(long, conflicts_with_all = ["reference_spp", "save_reference"])]
+    reference: Option<PathBuf>,
+    /// Samples per pixel of the rendered reference.
+    #[arg(long)]
+    reference_spp: Option<u32>,
+    /// Also write the rendered reference to this image (.exr keeps it exact).
+    #[arg(long)]
+    save_reference: Option<PathBuf>,
+    /// The relMSE the summary ranks settings by the time to reach.
+    #[arg(long, default_value_t = 1e-2)]
+    target_rel_mse: f64,
+    /// Maximum path segments where max-depth is not varied.
+    #[arg(long)]
+    max_depth: Option<u32>,
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Russian roulette where it is not varied: on or off.
+    #[arg(long, value_parser = parse_on_off)]
+    russian_roulette: Option<bool>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
+    /// Image size as WIDTHxHEIGHT, overriding the scene's.
+    #[arg(long, value_parser = parse_resolution)]
+    resolution: Option<(u32, u32)>,
+    /// Embree's BVH quality where it is not varied.
+    #[arg(long, default_value = "medium")]
+    embree_quality: EmbreeQuality,
+    /// Embree's robust traversal where it is not varied.
+    #[arg(long)]
+    embree_robust: bool,
+    /// No progress bar, notes or summary line.
+    #[arg(long)]
+    quiet: bool,
+}
+
+#[derive(clap::Args)]
 struct ToneMapArgs {
     /// Tone mapping of 8-bit outputs: clamp, equalize, equalize-clamp, gamma,
     /// clamp-gamma, reinhard.
@@ -248,6 +312,7 @@ fn main() -> ExitCode {
             fail_above,
         } => compare(&a, &b, abs_tol, rel_tol, fail_above),
         Command::Merge(args) => merge_parts(&args),
+        Command::Study(args) => study(args),
         Command::Info => info(),
     };
     match result {
@@ -309,23 +374,17 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         )));
     }
     imageio::check_output_path(&checkpoint).map_err(Failure::input)?;
-    if let Some(threads) = args.threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .build_global()
-            .map_err(Failure::other)?;
-    }
-
-    let mut scene = luz::scene::load(&args.scene).map_err(Failure::input)?;
-    if let Some((w, h)) = args.resolution {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
-    let settings = &mut scene.render;
-    settings.spp = args.spp.unwrap_or(settings.spp);
-    settings.max_depth = args.max_depth.unwrap_or(settings.max_depth);
-    settings.seed = args.seed.unwrap_or(settings.seed);
-    settings.russian_roulette = args.russian_roulette.unwrap_or(settings.russian_roulette);
+    use_threads(args.threads)?;
+    let scene = load_scene(
+        &args.scene,
+        &Overrides {
+            resolution: args.resolution,
+            spp: args.spp,
+            max_depth: args.max_depth,
+            seed: args.seed,
+            russian_roulette: args.russian_roulette,
+        },
+    )?;
     let scene = Arc::new(scene);
     let spp = scene.render.spp;
 
@@ -671,6 +730,105 @@ fn merge_parts(args: &MergeArgs) -> Result<(), Failure> {
             film.width,
             film.height,
             args.output.display()
+        );
+    }
+    Ok(())
+}
+
+/// What the command line overrides in a scene file.
+struct Overrides {
+    resolution: Option<(u32, u32)>,
+    spp: Option<u32>,
+    max_depth: Option<u32>,
+    seed: Option<u64>,
+    russian_roulette: Option<bool>,
+}
+
+fn load_scene(path: &Path, o: &Overrides) -> Result<Scene, Failure> {
+    let mut scene = luz::scene::load(path).map_err(Failure::input)?;
+    if let Some((w, h)) = o.resolution {
+        scene.camera.width = w;
+        scene.camera.height = h;
+    }
+    let settings = &mut scene.render;
+    settings.spp = o.spp.unwrap_or(settings.spp);
+    settings.max_depth = o.max_depth.unwrap_or(settings.max_depth);
+    settings.seed = o.seed.unwrap_or(settings.seed);
+    settings.russian_roulette = o.russian_roulette.unwrap_or(settings.russian_roulette);
+    Ok(scene)
+}
+
+fn use_threads(threads: Option<usize>) -> Result<(), Failure> {
+    match threads {
+        Some(n) => rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()
+            .map_err(Failure::other),
+        None => Ok(()),
+    }
+}
+
+fn study(args: StudyArgs) -> Result<(), Failure> {
+    use_threads(args.threads)?;
+    let scene = load_scene(
+        &args.scene,
+        &Overrides {
+            resolution: args.resolution,
+            spp: None,
+            max_depth: args.max_depth,
+            seed: args.seed,
+            russian_roulette: args.russian_roulette,
+        },
+    )?;
+    let width = scene.camera.width;
+    let reference = match args.reference {
+        Some(path) => ReferenceSource::File(path),
+        None => ReferenceSource::Render {
+            spp: args.reference_spp,
+            save: args.save_reference,
+        },
+    };
+    let options = StudyOptions {
+        spp: args.spp,
+        backends: args.backends,
+        vary: args.vary,
+        max_depths: args.max_depths,
+        build: BuildOptions {
+            embree_quality: args.embree_quality,
+            embree_robust: args.embree_robust,
+        },
+        reference,
+        target_rel_mse: args.target_rel_mse,
+        out: args.out.clone(),
+    };
+    let failure = |e: luz::study::StudyError| {
+        if e.is_input() {
+            Failure::input(e)
+        } else {
+            Failure::other(e)
+        }
+    };
+    let name = args.scene.file_name().unwrap_or(args.scene.as_os_str());
+    let study = Study::new(scene, &name.to_string_lossy(), options).map_err(failure)?;
+    if let (Some(r), false) = (study.reference_render(), args.quiet) {
+        eprintln!(
+            "luz: no --reference given: rendering one first ({r}){}",
+            match &r.save {
+                Some(path) => format!(", saved to {}", path.display()),
+                None => " (keep it with --save-reference REF.exr)".into(),
+            }
+        );
+    }
+    let bar = progress_bar(study.work(), width as u64, args.quiet);
+    let report = study.run(&Bar(bar.clone())).map_err(failure)?;
+    bar.finish_and_clear();
+    if !args.quiet {
+        eprintln!(
+            "luz: {} settings x {} sample counts -> {}: {}",
+            report.settings.len(),
+            report.rows.len() / report.settings.len().max(1),
+            args.out.display(),
+            report.conclusion()
         );
     }
     Ok(())
