@@ -96,26 +96,8 @@ struct RenderArgs {
     backend: BackendKind,
     #[arg(long)]
     spp: Option<u32>,
-    /// Maximum path segments, camera segment included (Mitsuba's max_depth).
-    #[arg(long)]
-    max_depth: Option<u32>,
-    #[arg(long)]
-    seed: Option<u64>,
-    /// Russian roulette over the lobes: on or off.
-    #[arg(long, value_parser = parse_on_off)]
-    russian_roulette: Option<bool>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
-    /// Image size as WIDTHxHEIGHT, overriding the scene's.
-    #[arg(long, value_parser = parse_resolution)]
-    resolution: Option<(u32, u32)>,
-    /// Embree's BVH quality: low, medium, high.
-    #[arg(long, default_value = "medium")]
-    embree_quality: EmbreeQuality,
-    /// Embree's robust (watertight, slower) traversal.
-    #[arg(long)]
-    embree_robust: bool,
+    #[command(flatten)]
+    settings: SettingsArgs,
     /// No progress bar and no summary line.
     #[arg(long)]
     quiet: bool,
@@ -182,7 +164,8 @@ struct StudyArgs {
     backends: Vec<BackendKind>,
     /// What to vary, every combination: nee (area lights; point lights are
     /// always sampled), russian-roulette, max-depth, embree-quality,
-    /// embree-robust.
+    /// embree-robust. A varied setting replaces its option (--max-depth,
+    /// --russian-roulette, --embree-quality, --embree-robust).
     #[arg(long, value_delimiter = ',')]
     vary: Vec<Vary>,
     /// Depths of `--vary max-depth` (default 3,5,8).
@@ -201,12 +184,23 @@ struct StudyArgs {
     /// The relMSE the summary ranks settings by the time to reach.
     #[arg(long, default_value_t = 1e-2)]
     target_rel_mse: f64,
-    /// Maximum path segments where max-depth is not varied.
+    #[command(flatten)]
+    settings: SettingsArgs,
+    /// No progress bar, notes or summary line.
+    #[arg(long)]
+    quiet: bool,
+}
+
+/// What `render` and `study` may override in the scene file, and how they
+/// run (`study` applies them where it does not vary them).
+#[derive(clap::Args)]
+struct SettingsArgs {
+    /// Maximum path segments, camera segment included (Mitsuba's max_depth).
     #[arg(long)]
     max_depth: Option<u32>,
     #[arg(long)]
     seed: Option<u64>,
-    /// Russian roulette where it is not varied: on or off.
+    /// Russian roulette over the lobes: on or off.
     #[arg(long, value_parser = parse_on_off)]
     russian_roulette: Option<bool>,
     /// Worker threads (default: all cores).
@@ -215,15 +209,43 @@ struct StudyArgs {
     /// Image size as WIDTHxHEIGHT, overriding the scene's.
     #[arg(long, value_parser = parse_resolution)]
     resolution: Option<(u32, u32)>,
-    /// Embree's BVH quality where it is not varied.
+    /// Embree's BVH quality: low, medium, high.
     #[arg(long, default_value = "medium")]
     embree_quality: EmbreeQuality,
-    /// Embree's robust traversal where it is not varied.
+    /// Embree's robust (watertight, slower) traversal.
     #[arg(long)]
     embree_robust: bool,
-    /// No progress bar, notes or summary line.
-    #[arg(long)]
-    quiet: bool,
+}
+
+impl SettingsArgs {
+    fn build_options(&self) -> BuildOptions {
+        BuildOptions {
+            embree_quality: self.embree_quality,
+            embree_robust: self.embree_robust,
+        }
+    }
+
+    /// Sets the worker threads, then loads the scene with these overrides
+    /// (and `spp`'s).
+    fn load_scene(&self, path: &Path, spp: Option<u32>) -> Result<Scene, Failure> {
+        if let Some(n) = self.threads {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(n)
+                .build_global()
+                .map_err(Failure::other)?;
+        }
+        let mut scene = luz::scene::load(path).map_err(Failure::input)?;
+        if let Some((w, h)) = self.resolution {
+            scene.camera.width = w;
+            scene.camera.height = h;
+        }
+        let settings = &mut scene.render;
+        settings.spp = spp.unwrap_or(settings.spp);
+        settings.max_depth = self.max_depth.unwrap_or(settings.max_depth);
+        settings.seed = self.seed.unwrap_or(settings.seed);
+        settings.russian_roulette = self.russian_roulette.unwrap_or(settings.russian_roulette);
+        Ok(scene)
+    }
 }
 
 #[derive(clap::Args)]
@@ -374,17 +396,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         )));
     }
     imageio::check_output_path(&checkpoint).map_err(Failure::input)?;
-    use_threads(args.threads)?;
-    let scene = load_scene(
-        &args.scene,
-        &Overrides {
-            resolution: args.resolution,
-            spp: args.spp,
-            max_depth: args.max_depth,
-            seed: args.seed,
-            russian_roulette: args.russian_roulette,
-        },
-    )?;
+    let scene = args.settings.load_scene(&args.scene, args.spp)?;
     let scene = Arc::new(scene);
     let spp = scene.render.spp;
 
@@ -399,10 +411,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     }
 
     let build_start = Instant::now();
-    let build_options = BuildOptions {
-        embree_quality: args.embree_quality,
-        embree_robust: args.embree_robust,
-    };
+    let build_options = args.settings.build_options();
     let accel = Accel::build(&scene, args.backend, &build_options).map_err(Failure::input)?;
     let build_time = build_start.elapsed();
 
@@ -735,51 +744,8 @@ fn merge_parts(args: &MergeArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// What the command line overrides in a scene file.
-struct Overrides {
-    resolution: Option<(u32, u32)>,
-    spp: Option<u32>,
-    max_depth: Option<u32>,
-    seed: Option<u64>,
-    russian_roulette: Option<bool>,
-}
-
-fn load_scene(path: &Path, o: &Overrides) -> Result<Scene, Failure> {
-    let mut scene = luz::scene::load(path).map_err(Failure::input)?;
-    if let Some((w, h)) = o.resolution {
-        scene.camera.width = w;
-        scene.camera.height = h;
-    }
-    let settings = &mut scene.render;
-    settings.spp = o.spp.unwrap_or(settings.spp);
-    settings.max_depth = o.max_depth.unwrap_or(settings.max_depth);
-    settings.seed = o.seed.unwrap_or(settings.seed);
-    settings.russian_roulette = o.russian_roulette.unwrap_or(settings.russian_roulette);
-    Ok(scene)
-}
-
-fn use_threads(threads: Option<usize>) -> Result<(), Failure> {
-    match threads {
-        Some(n) => rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()
-            .map_err(Failure::other),
-        None => Ok(()),
-    }
-}
-
 fn study(args: StudyArgs) -> Result<(), Failure> {
-    use_threads(args.threads)?;
-    let scene = load_scene(
-        &args.scene,
-        &Overrides {
-            resolution: args.resolution,
-            spp: None,
-            max_depth: args.max_depth,
-            seed: args.seed,
-            russian_roulette: args.russian_roulette,
-        },
-    )?;
+    let scene = args.settings.load_scene(&args.scene, None)?;
     let width = scene.camera.width;
     let reference = match args.reference {
         Some(path) => ReferenceSource::File(path),
@@ -793,10 +759,7 @@ fn study(args: StudyArgs) -> Result<(), Failure> {
         backends: args.backends,
         vary: args.vary,
         max_depths: args.max_depths,
-        build: BuildOptions {
-            embree_quality: args.embree_quality,
-            embree_robust: args.embree_robust,
-        },
+        build: args.settings.build_options(),
         reference,
         target_rel_mse: args.target_rel_mse,
         out: args.out.clone(),
