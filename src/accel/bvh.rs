@@ -896,7 +896,7 @@ impl BuildCtx<'_> {
                 }
                 let cost = lb.half_area() * self.packs(lc as usize)
                     + right_area[k] * self.packs(right_count[k] as usize);
-                if best.map_or(true, |(c, _, _)| cost < c) {
+                if best.is_none_or(|(c, _, _)| cost < c) {
                     best = Some((cost, axis, k));
                 }
             }

@@ -874,7 +874,7 @@ fn binary_body<const BE: bool>(
             // Fixed-size records: check the length once, then read at offsets.
             let left = data.len() - pos;
             let need = stride.checked_mul(el.count);
-            if need.map_or(true, |n| n > left) {
+            if need.is_none_or(|n| n > left) {
                 let r = left / stride.max(1);
                 return Err(truncated(r, pos + r * stride));
             }
