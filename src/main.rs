@@ -8,7 +8,7 @@ use luz::image::io::{self as imageio, WriteOptions};
 use luz::image::metrics;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
 use luz::render::merge::merge;
-use luz::render::part::{self, Part, PartMeta};
+use luz::render::part::{self, PartMeta};
 use luz::render::passes::{render_passes, Outcome};
 use luz::render::task::{self, Task};
 use luz::render::{Film, Progress, RenderOptions};
@@ -498,7 +498,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
             });
         }
         write_part(&checkpoint, &meta, &film)?;
-        write_output(&output, &meta, &film, &args.tonemap)?;
+        write_output(&output, &held(&meta, &film), &film, &args.tonemap)?;
         return Err(Failure {
             status: 128 + signal as u8,
             message: format!(
@@ -512,7 +512,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         });
     }
 
-    write_output(&output, &meta, &film, &args.tonemap)?;
+    write_output(&output, &held(&meta, &film), &film, &args.tonemap)?;
     // The output holds everything now; a checkpoint left behind would only
     // mislead a later --resume.
     if checkpoint.exists() {
@@ -653,21 +653,23 @@ fn resumed_film(path: &Path, meta: &PartMeta, resolution: (u32, u32)) -> Result<
     }
 }
 
-/// Writes `film` as a part holding the first `film.samples` of the samples
-/// `meta` was made for.
-fn write_part(path: &Path, meta: &PartMeta, film: &Film) -> Result<(), Failure> {
+/// `meta` for a film holding the first `film.samples` of the samples `meta`
+/// was made for.
+fn held(meta: &PartMeta, film: &Film) -> PartMeta {
     let start = meta.ranges[0].start;
-    let held = start..start + film.samples as u32;
-    let part = Part {
-        meta: PartMeta {
-            ranges: vec![held],
-            ..meta.clone()
-        },
-        film: film.clone(),
-    };
-    part::write(path, &part).map_err(Failure::other)
+    let range = start..start + film.samples as u32;
+    PartMeta {
+        ranges: vec![range],
+        ..meta.clone()
+    }
 }
 
+fn write_part(path: &Path, meta: &PartMeta, film: &Film) -> Result<(), Failure> {
+    part::write(path, &held(meta, film), film).map_err(Failure::other)
+}
+
+/// Writes `film` to `path`: a part (`meta` says what it holds) when `path`
+/// is an EXR, else the tone mapped image.
 fn write_output(
     path: &Path,
     meta: &PartMeta,
@@ -675,7 +677,7 @@ fn write_output(
     tonemap: &ToneMapArgs,
 ) -> Result<(), Failure> {
     if is_exr(path) {
-        write_part(path, meta, film)
+        part::write(path, meta, film).map_err(Failure::other)
     } else {
         imageio::write(path, &film.image(), &tonemap.write_options()).map_err(Failure::other)
     }
@@ -725,12 +727,7 @@ fn merge_parts(args: &MergeArgs) -> Result<(), Failure> {
             film.samples
         );
     }
-    if is_exr(&args.output) {
-        part::write(&args.output, &merged.part).map_err(Failure::other)?;
-    } else {
-        imageio::write(&args.output, &film.image(), &args.tonemap.write_options())
-            .map_err(Failure::other)?;
-    }
+    write_output(&args.output, meta, film, &args.tonemap)?;
     if !args.quiet {
         eprintln!(
             "merged {count} parts: samples {} ({} per pixel), {}x{} -> {}",

@@ -146,10 +146,9 @@ fn join_bits(hi: u32, lo: u32) -> f64 {
     f64::from_bits(((hi as u64) << 32) | lo as u64)
 }
 
-/// Writes `part` to `path` atomically (see the module docs for the layout).
-pub fn write(path: &Path, part: &Part) -> Result<(), PartError> {
-    let film = &part.film;
-    let meta = &part.meta;
+/// Writes the part `meta` describes, holding `film`, to `path` atomically
+/// (see the module docs for the layout).
+pub fn write(path: &Path, meta: &PartMeta, film: &Film) -> Result<(), PartError> {
     let mean = film.image();
     let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
     for (c, name) in RGB.iter().enumerate() {
@@ -338,7 +337,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("luz-part-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join("p.exr");
-        write(&path, &part).unwrap();
+        write(&path, &part.meta, &part.film).unwrap();
         assert_eq!(read(&path).unwrap(), part);
         // Any EXR reader sees the mean image.
         let mean = crate::image::read(&path).unwrap();
