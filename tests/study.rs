@@ -58,10 +58,7 @@ fn temp_dir(name: &str) -> PathBuf {
 }
 
 fn embree_compiled() -> bool {
-    let out = luz(&["info"]);
-    String::from_utf8_lossy(&out.stdout)
-        .lines()
-        .any(|l| l.starts_with("backends:") && l.contains("embree"))
+    luz::accel::compiled_backends().contains(&"embree")
 }
 
 struct Row {

@@ -219,11 +219,12 @@ fn traversal(c: &mut Criterion, cases: &[Case]) {
             ("bounce", &case.rays.bounce),
             ("shadow", &case.rays.shadow),
         ] {
+            let shadow = what == "shadow";
             group.throughput(Throughput::Elements(rays.len() as u64));
             for (backend, accel) in &accels {
                 // Counting hits keeps the traversal from being optimised away.
                 let trace = |r: &Ray| {
-                    if what == "shadow" {
+                    if shadow {
                         accel.occluded(r)
                     } else {
                         accel.intersect(r).is_some()
