@@ -4,6 +4,7 @@
 
 pub mod accel;
 pub mod image;
+mod location;
 pub mod math;
 pub mod render;
 pub mod sampling;

@@ -50,6 +50,7 @@
 
 use super::tonemap::{ToneMap, ToneMapParams};
 use super::Image;
+use crate::location::line_column;
 use crate::math::Vec3;
 use image::{ExtendedColorType, ImageEncoder, ImageFormat};
 use std::fs::File;
@@ -328,15 +329,11 @@ fn is_space(b: u8) -> bool {
 impl<'a> PpmReader<'a> {
     /// An error at byte `offset` of the text, reported as line and column.
     fn error(&self, offset: usize, field: &str, message: impl Into<String>) -> ImageError {
-        let before = &self.data[..offset.min(self.data.len())];
-        let line_start = before
-            .iter()
-            .rposition(|&b| b == b'\n')
-            .map_or(0, |i| i + 1);
+        let (line, column) = line_column(self.data, offset);
         ImageError::Parse {
             path: self.path.to_path_buf(),
-            line: before.iter().filter(|&&b| b == b'\n').count() + 1,
-            column: before.len() - line_start + 1,
+            line,
+            column,
             field: field.to_string(),
             message: message.into(),
         }

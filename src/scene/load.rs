@@ -6,6 +6,7 @@
 
 use super::shape::{Cuboid, Geometry, Mesh, Plane, Quad, Sphere};
 use super::{Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform};
+use crate::location::line_column;
 use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -36,20 +37,13 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 /// Loads a scene from the bytes of a scene file, which must be UTF-8;
 /// `path` names it in errors and anchors relative file names.
 pub fn load_bytes(data: &[u8], path: &Path) -> Result<Scene, SceneError> {
-    let text = std::str::from_utf8(data).map_err(|e| {
-        let valid = &data[..e.valid_up_to()];
-        let line_start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-        SceneError {
-            file: path.to_path_buf(),
-            location: Some((
-                valid.iter().filter(|&&b| b == b'\n').count() + 1,
-                valid.len() - line_start + 1,
-            )),
-            message: format!(
-                "the file is not UTF-8 text (invalid byte at offset {})",
-                valid.len()
-            ),
-        }
+    let text = std::str::from_utf8(data).map_err(|e| SceneError {
+        file: path.to_path_buf(),
+        location: Some(line_column(data, e.valid_up_to())),
+        message: format!(
+            "the file is not UTF-8 text (invalid byte at offset {})",
+            e.valid_up_to()
+        ),
     })?;
     load_str(text, path)
 }
@@ -212,13 +206,9 @@ struct Ctx<'a> {
 
 impl Ctx<'_> {
     fn error_at(&self, offset: usize, message: impl Into<String>) -> SceneError {
-        let offset = offset.min(self.text.len());
-        let before = &self.text[..offset];
-        let line = before.matches('\n').count() + 1;
-        let column = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
         SceneError {
             file: self.path.to_path_buf(),
-            location: Some((line, column)),
+            location: Some(line_column(self.text.as_bytes(), offset)),
             message: message.into(),
         }
     }
@@ -809,7 +799,6 @@ impl Ctx<'_> {
     }
 }
 
-/// The unknown key named by a serde "unknown field" message.
 /// The key of a `key = value` line whose value starts at `offset`: serde's
 /// type errors point at the value and do not name the field.
 fn key_before(text: &str, offset: usize) -> Option<&str> {
@@ -823,6 +812,7 @@ fn key_before(text: &str, offset: usize) -> Option<&str> {
     (is_key && rest.trim().is_empty()).then_some(key)
 }
 
+/// The unknown key named by a serde "unknown field" message.
 fn unknown_field(message: &str) -> Option<&str> {
     let rest = message.strip_prefix("unknown field `")?;
     rest.split('`').next()

@@ -11,6 +11,7 @@
 //! not use (normals, colours, confidence, ...) are skipped.
 
 use super::shape::Mesh;
+use crate::location::line_column;
 use crate::math::{Vec2, Vec3};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -983,13 +984,8 @@ fn binary_body<const BE: bool>(
 
 fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
     let text = std::str::from_utf8(data).map_err(|e| {
-        let valid = &data[..e.valid_up_to()];
-        let line_start = valid.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1);
-        fail_at(
-            valid.iter().filter(|&&b| b == b'\n').count() + 1,
-            valid.len() - line_start + 1,
-            "the file is not UTF-8 text",
-        )
+        let (line, column) = line_column(data, e.valid_up_to());
+        fail_at(line, column, "the file is not UTF-8 text")
     })?;
     // Single index, fan-triangulated, points and lines dropped.
     let opts = tobj::GPU_LOAD_OPTIONS;
@@ -1049,12 +1045,8 @@ fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
     if mesh.indices.is_empty() {
         // tobj drops malformed faces silently: name the first one if any,
         // else point at the end of the file, where faces were still expected.
-        let line_start = text.rfind('\n').map_or(0, |i| i + 1);
-        let at_end = fail_at(
-            text.matches('\n').count() + 1,
-            text.len() - line_start + 1,
-            no_faces(triangles),
-        );
+        let (line, column) = line_column(text.as_bytes(), text.len());
+        let at_end = fail_at(line, column, no_faces(triangles));
         return Err(match triangles {
             0 => locate_obj_problem(text).unwrap_or(at_end),
             _ => at_end,

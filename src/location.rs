@@ -1,0 +1,28 @@
+//! Where a byte offset lies in a text file, as located errors report it.
+
+/// The 1-based line and column (counted in bytes) of byte `offset` of
+/// `text`; an offset past the end is the end.
+pub(crate) fn line_column(text: &[u8], offset: usize) -> (usize, usize) {
+    let before = &text[..offset.min(text.len())];
+    let line_start = before
+        .iter()
+        .rposition(|&b| b == b'\n')
+        .map_or(0, |i| i + 1);
+    let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+    (line, before.len() - line_start + 1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::line_column;
+
+    #[test]
+    fn lines_and_columns_count_from_one() {
+        let text = b"ab\ncd\n";
+        assert_eq!(line_column(text, 0), (1, 1));
+        assert_eq!(line_column(text, 2), (1, 3));
+        assert_eq!(line_column(text, 3), (2, 1));
+        assert_eq!(line_column(text, 6), (3, 1));
+        assert_eq!(line_column(text, 99), (3, 1));
+    }
+}
