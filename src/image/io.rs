@@ -53,6 +53,7 @@ use super::Image;
 use crate::location::line_column;
 use crate::math::Vec3;
 use image::{ExtendedColorType, ImageEncoder, ImageFormat};
+use std::borrow::Cow;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
@@ -394,8 +395,10 @@ impl<'a> PpmReader<'a> {
         }
     }
 
-    /// The next whitespace-delimited token and its offset.
-    fn token(&mut self, field: &str) -> Result<(String, usize), ImageError> {
+    /// The next whitespace-delimited token and its offset. `field` names
+    /// it in an error; it is a closure so that the pixel values of a large
+    /// ASCII file do not each format a name no error needs.
+    fn token(&mut self, field: impl Fn() -> String) -> Result<(Cow<'a, str>, usize), ImageError> {
         self.skip()?;
         let start = self.pos;
         while self.pos < self.data.len()
@@ -405,20 +408,24 @@ impl<'a> PpmReader<'a> {
             self.pos += 1;
         }
         if start == self.pos {
-            return Err(self.error(self.pos, field, "unexpected end of file"));
+            return Err(self.error(self.pos, &field(), "unexpected end of file"));
         }
-        Ok((
-            String::from_utf8_lossy(&self.data[start..self.pos]).into_owned(),
-            start,
-        ))
+        let data: &'a [u8] = self.data;
+        Ok((String::from_utf8_lossy(&data[start..self.pos]), start))
     }
 
     /// An integer in `lo..=hi`.
-    fn int(&mut self, field: &str, lo: u64, hi: u64, expected: &str) -> Result<u64, ImageError> {
-        let (tok, at) = self.token(field)?;
+    fn int(
+        &mut self,
+        field: impl Fn() -> String,
+        lo: u64,
+        hi: u64,
+        expected: &str,
+    ) -> Result<u64, ImageError> {
+        let (tok, at) = self.token(&field)?;
         match tok.parse::<u64>() {
             Ok(v) if (lo..=hi).contains(&v) => Ok(v),
-            _ => Err(self.error(at, field, format!("expected {expected}, found `{tok}`"))),
+            _ => Err(self.error(at, &field(), format!("expected {expected}, found `{tok}`"))),
         }
     }
 }
@@ -434,8 +441,8 @@ pub fn parse_ppm(data: &[u8], path: &Path) -> Result<Image, ImageError> {
         max: None,
         in_body: false,
     };
-    let (magic, at) = r.token("magic number")?;
-    let (binary, grey) = match magic.as_str() {
+    let (magic, at) = r.token(|| "magic number".into())?;
+    let (binary, grey) = match &*magic {
         "P2" => (false, true),
         "P3" => (false, false),
         "P5" => (true, true),
@@ -451,15 +458,15 @@ pub fn parse_ppm(data: &[u8], path: &Path) -> Result<Image, ImageError> {
     let positive = "a positive integer";
     r.skip()?;
     let width_at = r.pos;
-    let width = r.int("width", 1, u32::MAX as u64, positive)?;
-    let height = r.int("height", 1, u32::MAX as u64, positive)?;
+    let width = r.int(|| "width".into(), 1, u32::MAX as u64, positive)?;
+    let height = r.int(|| "height".into(), 1, u32::MAX as u64, positive)?;
     let maxval_hi = if binary { 65535 } else { u32::MAX as u64 };
     let maxval_expected = if binary {
         "a positive integer up to 65535"
     } else {
         positive
     };
-    let maxval = r.int("maxval", 1, maxval_hi, maxval_expected)?;
+    let maxval = r.int(|| "maxval".into(), 1, maxval_hi, maxval_expected)?;
     r.in_body = true;
     let channels: u64 = if grey { 1 } else { 3 };
     let values = width
@@ -530,8 +537,8 @@ pub fn parse_ppm(data: &[u8], path: &Path) -> Result<Image, ImageError> {
         let expected = format!("an integer in 0..={maxval}");
         for k in 0..values as u64 {
             let p = k / channels;
-            let field = sample_field(p % width, p / width, k % channels, grey);
-            let i = r.int(&field, 0, maxval, &expected)?;
+            let field = || sample_field(p % width, p / width, k % channels, grey);
+            let i = r.int(field, 0, maxval, &expected)?;
             samples.push(convert(i));
         }
     }
