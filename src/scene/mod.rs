@@ -75,6 +75,11 @@ pub struct Scene {
     pub render: RenderSettings,
 }
 
+/// Samples the emitters of the shapes that ask for NEE.
+fn light_sampler(shapes: &[Shape], materials: &[Material]) -> LightSampler {
+    LightSampler::new(shapes, |s| materials[s.material as usize].emission)
+}
+
 impl Scene {
     /// Assembles a scene and builds its light sampler.
     pub fn new(
@@ -86,7 +91,7 @@ impl Scene {
         environment: Option<Rgb>,
         render: RenderSettings,
     ) -> Self {
-        let lights = LightSampler::new(&shapes, |s| materials[s.material as usize].emission);
+        let lights = light_sampler(&shapes, &materials);
         Self {
             camera,
             materials,
@@ -97,6 +102,11 @@ impl Scene {
             lights,
             render,
         }
+    }
+
+    /// Rebuilds the light sampler after shapes' `nee` flags changed.
+    pub fn rebuild_lights(&mut self) {
+        self.lights = light_sampler(&self.shapes, &self.materials);
     }
 
     /// Bare geometry for intersection work (tests, benchmarks, tools): one

@@ -16,7 +16,7 @@ use crate::accel::{Accel, AccelError, BackendKind, BuildOptions, EmbreeQuality};
 use crate::image::io::{self as imageio, ImageError, WriteOptions};
 use crate::image::{metrics, Image};
 use crate::render::{render_with, IntegratorSettings, Progress, RenderOptions};
-use crate::scene::{Geometry, LightSampler, Scene};
+use crate::scene::{Geometry, Scene};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -186,7 +186,7 @@ pub struct ReferenceRender {
 
 /// A planned study: arguments checked, settings enumerated, reference read.
 pub struct Study {
-    scene: Scene,
+    scene: Arc<Scene>,
     name: String,
     spp: Vec<u32>,
     settings: Vec<Setting>,
@@ -284,7 +284,7 @@ impl Study {
             source,
         })?;
         Ok(Self {
-            scene,
+            scene: Arc::new(scene),
             name: name.to_owned(),
             spp,
             settings,
@@ -326,7 +326,7 @@ impl Study {
         };
         let mut rows = Vec::new();
         for (index, setting) in self.settings.iter().enumerate() {
-            let scene = Arc::new(self.variant(setting));
+            let scene = self.variant(setting);
             let start = Instant::now();
             let accel = Accel::build(&scene, setting.backend, &setting.build)?;
             let build_s = start.elapsed().as_secs_f64();
@@ -381,7 +381,7 @@ impl Study {
         r: &ReferenceRender,
         progress: &dyn Progress,
     ) -> Result<Image, StudyError> {
-        let scene = Arc::new(self.scene.clone());
+        let scene = Arc::clone(&self.scene);
         let accel = Accel::build(&scene, r.backend, &self.build)?;
         let mut options = RenderOptions::from_scene(&scene);
         options.samples = 0..r.spp;
@@ -395,12 +395,16 @@ impl Study {
     }
 
     /// The scene as `setting` renders it.
-    fn variant(&self, setting: &Setting) -> Scene {
-        let mut scene = self.scene.clone();
-        if let Some(nee) = setting.nee {
-            set_nee(&mut scene, nee);
+    /// The scene as `setting` renders it: shared unless NEE is varied.
+    fn variant(&self, setting: &Setting) -> Arc<Scene> {
+        match setting.nee {
+            Some(nee) => {
+                let mut scene = Scene::clone(&self.scene);
+                set_nee(&mut scene, nee);
+                Arc::new(scene)
+            }
+            None => Arc::clone(&self.scene),
         }
-        scene
     }
 }
 
@@ -428,8 +432,7 @@ fn set_nee(scene: &mut Scene, on: bool) {
             && scene.materials[shape.material as usize].is_emissive()
             && !matches!(shape.geometry, Geometry::Plane(_));
     }
-    let materials = &scene.materials;
-    scene.lights = LightSampler::new(&scene.shapes, |s| materials[s.material as usize].emission);
+    scene.rebuild_lights();
 }
 
 fn resolve_backends(asked: &[BackendKind]) -> Result<Vec<BackendKind>, StudyError> {
