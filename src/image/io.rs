@@ -563,14 +563,19 @@ fn sample_field(x: u64, y: u64, c: u64, grey: bool) -> String {
 
 // ------------------------------------------------------------------ write
 
+/// The directory a file `path` lies in (`.` for a bare file name).
+fn directory_of(path: &Path) -> &Path {
+    match path.parent() {
+        Some(dir) if !dir.as_os_str().is_empty() => dir,
+        _ => Path::new("."),
+    }
+}
+
 /// Checks that `path` names a format `write` can produce and a directory
 /// that exists, so a caller can refuse it before spending time on a render.
 pub fn check_output_path(path: &Path) -> Result<(), ImageError> {
     output_kind(path)?;
-    let dir = match path.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir,
-        _ => Path::new("."),
-    };
+    let dir = directory_of(path);
     if !dir.is_dir() {
         return Err(ImageError::Io {
             path: path.to_path_buf(),
@@ -743,10 +748,7 @@ pub(crate) fn write_atomic(
         path: path.to_path_buf(),
         message: "not a file name".into(),
     })?;
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
+    let dir = directory_of(path);
     let temp = dir.join(format!(
         ".{}.luz-tmp-{}-{}",
         name.to_string_lossy(),
