@@ -403,9 +403,19 @@ enum Role {
     Indices,
 }
 
-/// Per element, the role of each property. `end_line` is the line of
+/// How to read a PLY body.
+struct Plan {
+    /// Per element, the role of each property.
+    roles: Vec<Vec<Role>>,
+    has_uv: bool,
+    /// The indices of the `vertex` and `face` elements.
+    vertex: usize,
+    face: usize,
+}
+
+/// The plan for a header's elements. `end_line` is the line of
 /// `end_header`, where a missing element is reported.
-fn plan(elements: &[Element], end_line: usize) -> Result<(Vec<Vec<Role>>, bool), Fail> {
+fn plan(elements: &[Element], end_line: usize) -> Result<Plan, Fail> {
     let mut roles: Vec<Vec<Role>> = elements
         .iter()
         .map(|e| vec![Role::Skip; e.props.len()])
@@ -491,23 +501,25 @@ fn plan(elements: &[Element], end_line: usize) -> Result<(Vec<Vec<Role>>, bool),
             ))
         }
     }
-    Ok((roles, has_uv))
+    Ok(Plan {
+        roles,
+        has_uv,
+        vertex: vi,
+        face: fi,
+    })
 }
 
 fn parse_ply(data: &[u8]) -> Result<Mesh, Fail> {
     let header = parse_header(data)?;
-    let (roles, has_uv) = plan(&header.elements, header.body_line - 1)?;
+    let Plan {
+        roles,
+        has_uv,
+        vertex,
+        face,
+    } = plan(&header.elements, header.body_line - 1)?;
     let body = &data[header.body..];
-    let nv = header
-        .elements
-        .iter()
-        .find(|e| e.name == "vertex")
-        .map_or(0, |e| e.count);
-    let (nf, face_line) = header
-        .elements
-        .iter()
-        .find(|e| e.name == "face")
-        .map_or((0, 1), |e| (e.count, e.line));
+    let nv = header.elements[vertex].count;
+    let (nf, face_line) = (header.elements[face].count, header.elements[face].line);
     // Counts come from the file; never reserve more than the body could hold.
     let mut out = Builder {
         positions: Vec::with_capacity(nv.min(body.len() / 3)),
