@@ -167,16 +167,16 @@ fn build_variants() -> Vec<(String, BackendKind, BuildOptions)> {
         BuildOptions::default(),
     )];
     if luz::accel::compiled_backends().contains(&"embree") {
-        for (name, quality) in [
-            ("low", EmbreeQuality::Low),
-            ("medium", EmbreeQuality::Medium),
-            ("high", EmbreeQuality::High),
-        ] {
+        for quality in EmbreeQuality::ALL {
             let options = BuildOptions {
                 embree_quality: quality,
                 ..BuildOptions::default()
             };
-            variants.push((format!("embree-{name}"), BackendKind::Embree, options));
+            variants.push((
+                format!("embree-{}", quality.name()),
+                BackendKind::Embree,
+                options,
+            ));
         }
     }
     variants

@@ -43,15 +43,34 @@ pub enum BackendKind {
     Embree,
 }
 
+impl BackendKind {
+    pub const ALL: [BackendKind; 3] = [Self::Auto, Self::Rust, Self::Embree];
+
+    /// The name `FromStr` accepts (which also takes `native` for `rust`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Auto => "auto",
+            Self::Rust => "rust",
+            Self::Embree => "embree",
+        }
+    }
+}
+
 impl std::str::FromStr for BackendKind {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "auto" => Ok(Self::Auto),
-            "rust" | "native" => Ok(Self::Rust),
-            "embree" => Ok(Self::Embree),
-            _ => Err(format!("unknown backend `{s}` (known: auto, rust, embree)")),
+        if s == "native" {
+            return Ok(Self::Rust);
         }
+        Self::ALL
+            .into_iter()
+            .find(|k| k.name() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown backend `{s}` (known: {})",
+                    Self::ALL.map(Self::name).join(", ")
+                )
+            })
     }
 }
 
@@ -64,17 +83,31 @@ pub enum EmbreeQuality {
     High,
 }
 
+impl EmbreeQuality {
+    pub const ALL: [EmbreeQuality; 3] = [Self::Low, Self::Medium, Self::High];
+
+    /// The name `FromStr` accepts.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Low => "low",
+            Self::Medium => "medium",
+            Self::High => "high",
+        }
+    }
+}
+
 impl std::str::FromStr for EmbreeQuality {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "low" => Ok(Self::Low),
-            "medium" => Ok(Self::Medium),
-            "high" => Ok(Self::High),
-            _ => Err(format!(
-                "unknown Embree quality `{s}` (known: low, medium, high)"
-            )),
-        }
+        Self::ALL
+            .into_iter()
+            .find(|q| q.name() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown Embree quality `{s}` (known: {})",
+                    Self::ALL.map(Self::name).join(", ")
+                )
+            })
     }
 }
 

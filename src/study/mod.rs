@@ -36,20 +36,41 @@ pub enum Vary {
 impl std::str::FromStr for Vary {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        match s {
-            "nee" => Ok(Self::Nee),
-            "russian-roulette" | "rr" => Ok(Self::RussianRoulette),
-            "max-depth" => Ok(Self::MaxDepth),
-            "embree-quality" => Ok(Self::EmbreeQuality),
-            "embree-robust" => Ok(Self::EmbreeRobust),
-            _ => Err(format!(
-                "unknown study dimension `{s}` (known: nee, russian-roulette, max-depth, embree-quality, embree-robust)"
-            )),
+        if s == "rr" {
+            return Ok(Self::RussianRoulette);
         }
+        Self::ALL
+            .into_iter()
+            .find(|v| v.name() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown study dimension `{s}` (known: {})",
+                    Self::ALL.map(Self::name).join(", ")
+                )
+            })
     }
 }
 
 impl Vary {
+    const ALL: [Vary; 5] = [
+        Self::Nee,
+        Self::RussianRoulette,
+        Self::MaxDepth,
+        Self::EmbreeQuality,
+        Self::EmbreeRobust,
+    ];
+
+    /// The name `FromStr` accepts (which also takes `rr`).
+    fn name(self) -> &'static str {
+        match self {
+            Self::Nee => "nee",
+            Self::RussianRoulette => "russian-roulette",
+            Self::MaxDepth => "max-depth",
+            Self::EmbreeQuality => "embree-quality",
+            Self::EmbreeRobust => "embree-robust",
+        }
+    }
+
     fn embree_only(self) -> bool {
         matches!(self, Self::EmbreeQuality | Self::EmbreeRobust)
     }
@@ -229,7 +250,7 @@ impl Study {
             if !backends.contains(&BackendKind::Embree) {
                 return invalid(format!(
                     "--vary {}: only the Embree backend has that option, and --backends leaves it out",
-                    vary_name(*v)
+                    v.name()
                 ));
             }
         }
@@ -419,7 +440,7 @@ impl std::fmt::Display for ReferenceRender {
             "{} spp, seed {}, {} backend",
             self.spp,
             self.seed,
-            backend_name(self.backend)
+            self.backend.name()
         )
     }
 }
@@ -478,7 +499,7 @@ fn enumerate(
             russian_roulette: scene.render.russian_roulette,
             max_depth: scene.render.max_depth,
             build,
-            label: backend_name(backend).to_owned(),
+            label: backend.name().to_owned(),
         })
         .collect();
     for &v in vary {
@@ -521,7 +542,7 @@ fn enumerate(
                     .map(|q| {
                         let mut t = s.clone();
                         t.build.embree_quality = q;
-                        let _ = write!(t.label, " / {} quality", quality_name(q));
+                        let _ = write!(t.label, " / {} quality", q.name());
                         t
                     })
                     .collect(),
@@ -530,32 +551,6 @@ fn enumerate(
             .collect();
     }
     settings
-}
-
-fn vary_name(v: Vary) -> &'static str {
-    match v {
-        Vary::Nee => "nee",
-        Vary::RussianRoulette => "russian-roulette",
-        Vary::MaxDepth => "max-depth",
-        Vary::EmbreeQuality => "embree-quality",
-        Vary::EmbreeRobust => "embree-robust",
-    }
-}
-
-fn backend_name(kind: BackendKind) -> &'static str {
-    match kind {
-        BackendKind::Auto => "auto",
-        BackendKind::Rust => "rust",
-        BackendKind::Embree => "embree",
-    }
-}
-
-fn quality_name(q: EmbreeQuality) -> &'static str {
-    match q {
-        EmbreeQuality::Low => "low",
-        EmbreeQuality::Medium => "medium",
-        EmbreeQuality::High => "high",
-    }
 }
 
 fn on_off(b: bool) -> &'static str {
@@ -618,10 +613,7 @@ impl Report {
         for r in &self.rows {
             let t = &self.settings[r.setting];
             let (quality, robust) = if t.backend == BackendKind::Embree {
-                (
-                    quality_name(t.build.embree_quality),
-                    on_off(t.build.embree_robust),
-                )
+                (t.build.embree_quality.name(), on_off(t.build.embree_robust))
             } else {
                 ("", "")
             };
@@ -629,7 +621,7 @@ impl Report {
                 s,
                 "{},{},{},{},{},{quality},{robust},{},{},{},{},{},{},{}",
                 t.label,
-                backend_name(t.backend),
+                t.backend.name(),
                 t.nee.map_or("scene", on_off),
                 on_off(t.russian_roulette),
                 t.max_depth,
