@@ -108,7 +108,7 @@ fn main() -> ExitCode {
     let baseline = if args.save {
         None
     } else {
-        match read_baseline(&path) {
+        match read_json::<Baseline>(&path) {
             Ok(b) => Some(b),
             Err(e) => {
                 eprintln!("regress: {e}\n(record one with --save-baseline)");
@@ -158,7 +158,8 @@ fn main() -> ExitCode {
     }
 }
 
-fn read_baseline(path: &Path) -> Result<Baseline, String> {
+/// A JSON file, with its path in any error.
+fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, String> {
     let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
     serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
@@ -201,12 +202,7 @@ fn find_results(dir: &Path, found: &mut Vec<PathBuf>) -> std::io::Result<()> {
 /// One benchmark's id and figure from criterion's `benchmark.json` (id and
 /// elements per iteration) and `estimates.json` (times in ns).
 fn read_result(dir: &Path) -> Result<(String, Figure), String> {
-    let json = |name: &str| -> Result<serde_json::Value, String> {
-        let path = dir.join(name);
-        let text =
-            std::fs::read_to_string(&path).map_err(|e| format!("{}: {e}", path.display()))?;
-        serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
-    };
+    let json = |name: &str| read_json::<serde_json::Value>(&dir.join(name));
     let (benchmark, estimates) = (json("benchmark.json")?, json("estimates.json")?);
     let missing = |what| format!("{}: no {what}", dir.display());
     let id = benchmark["full_id"]

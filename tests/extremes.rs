@@ -9,7 +9,7 @@
 
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
 use luz::image::io::{read, write, WriteOptions};
-use luz::math::{spawn_ray, Ray, Rgb, Vec3};
+use luz::math::{reflect, spawn_ray, Ray, Rgb, Vec3};
 use luz::render::{render_with, Film, PixelSum, RenderOptions};
 use luz::sampling::{uniform_sphere, Rng};
 use luz::scene::shape::{Mesh, Quad, Sphere};
@@ -344,7 +344,7 @@ fn grazing_rays_down_to_1e_minus6_rad() {
                             nf += 1;
                             continue;
                         }
-                        let mirror = d - 2.0 * d.dot(sp.n) * sp.n;
+                        let mirror = reflect(-d, sp.n);
                         for w in [mirror, d, uniform_sphere(rng.next_2d())] {
                             let r = spawn_ray(sp.p, sp.p_err, sp.n, w.normalize());
                             rays += 1;
@@ -731,7 +731,7 @@ fn sliver_and_degenerate_triangles() {
                 nf += 1;
                 continue;
             }
-            let mirror = d - 2.0 * d.dot(sp.n) * sp.n;
+            let mirror = reflect(-d, sp.n);
             for w in [mirror, uniform_sphere(rng.next_2d())] {
                 rays += 1;
                 if accel
