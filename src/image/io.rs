@@ -182,7 +182,12 @@ pub fn read(path: &Path) -> Result<Image, ImageError> {
         supported: READ_FORMATS,
     })?;
     let img = decode(path, &data, kind)?;
-    check_finite(path, &img, "files must hold finite values")?;
+    check_values(
+        path,
+        &img,
+        |v| !v.is_finite(),
+        "files must hold finite values",
+    )?;
     Ok(img)
 }
 
@@ -209,20 +214,12 @@ pub fn read_texture(path: &Path) -> Result<Image, ImageError> {
         }
     };
     let img = decode(path, &data, kind)?;
-    for (i, p) in img.pixels.iter().enumerate() {
-        for c in 0..3 {
-            if !(0.0..=1.0).contains(&p[c]) {
-                return Err(ImageError::BadValue {
-                    path: path.to_path_buf(),
-                    x: (i % img.width as usize) as u32,
-                    y: (i / img.width as usize) as u32,
-                    channel: CHANNELS[c],
-                    value: p[c],
-                    reason: "texture values are albedos and must lie in [0, 1]",
-                });
-            }
-        }
-    }
+    check_values(
+        path,
+        &img,
+        |v| !(0.0..=1.0).contains(&v),
+        "texture values are albedos and must lie in [0, 1]",
+    )?;
     Ok(img)
 }
 
@@ -298,8 +295,14 @@ fn srgb_lut() -> [f32; 256] {
     std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0))
 }
 
-fn check_finite(path: &Path, img: &Image, reason: &'static str) -> Result<(), ImageError> {
-    match img.first_non_finite() {
+/// An error at the first value of `img` that is `bad`, if any.
+fn check_values(
+    path: &Path,
+    img: &Image,
+    bad: impl Fn(f32) -> bool,
+    reason: &'static str,
+) -> Result<(), ImageError> {
+    match img.first_where(bad) {
         None => Ok(()),
         Some((x, y, c)) => Err(ImageError::BadValue {
             path: path.to_path_buf(),
@@ -634,23 +637,19 @@ pub fn write(path: &Path, img: &Image, options: &WriteOptions) -> Result<(), Ima
             ),
         });
     }
-    check_finite(path, img, "non-finite values cannot be written")?;
+    check_values(
+        path,
+        img,
+        |v| !v.is_finite(),
+        "non-finite values cannot be written",
+    )?;
     if matches!(kind, Kind::Hdr | Kind::Ppm) {
-        if let Some((i, c)) = img
-            .pixels
-            .iter()
-            .enumerate()
-            .find_map(|(i, p)| (0..3).find(|&c| p[c] < 0.0).map(|c| (i, c)))
-        {
-            return Err(ImageError::BadValue {
-                path: path.to_path_buf(),
-                x: (i % img.width as usize) as u32,
-                y: (i / img.width as usize) as u32,
-                channel: CHANNELS[c],
-                value: img.pixels[i][c],
-                reason: "negative values cannot be stored in this format (use .exr)",
-            });
-        }
+        check_values(
+            path,
+            img,
+            |v| v < 0.0,
+            "negative values cannot be stored in this format (use .exr)",
+        )?;
     }
     if kind == Kind::Ppm && options.ppm_resolution == 0 {
         return Err(ImageError::InvalidParameter(

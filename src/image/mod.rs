@@ -101,10 +101,11 @@ impl Image {
         )
     }
 
-    /// Position `(x, y, channel)` of the first non-finite channel value.
-    pub fn first_non_finite(&self) -> Option<(u32, u32, usize)> {
+    /// Position `(x, y, channel)` of the first channel value that is `bad`,
+    /// in row-major order.
+    pub fn first_where(&self, bad: impl Fn(f32) -> bool) -> Option<(u32, u32, usize)> {
         self.pixels.iter().enumerate().find_map(|(i, p)| {
-            (0..3).find(|&c| !p[c].is_finite()).map(|c| {
+            (0..3).find(|&c| bad(p[c])).map(|c| {
                 (
                     (i % self.width as usize) as u32,
                     (i / self.width as usize) as u32,
@@ -129,9 +130,9 @@ mod tests {
         assert_eq!(img.max_value(), 4.0);
         let doubled = img.map(|p| p * 2.0);
         assert_eq!(doubled.get(0, 0), Vec3::splat(2.0));
-        assert_eq!(img.first_non_finite(), None);
+        assert_eq!(img.first_where(|v| !v.is_finite()), None);
         img.set(1, 1, Vec3::new(0.0, f32::NAN, 0.0));
-        assert_eq!(img.first_non_finite(), Some((1, 1, 1)));
+        assert_eq!(img.first_where(|v| !v.is_finite()), Some((1, 1, 1)));
         assert_eq!(img.max_value(), 4.0);
     }
 
