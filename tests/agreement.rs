@@ -4,15 +4,15 @@
 //! path that grazed an edge one backend saw and the other did not) must lie
 //! within the noise bound of the two estimates.
 
+mod common;
+
+use common::embree_compiled;
+
 use luz::accel::{Accel, BackendKind, BuildOptions};
 use luz::image::metrics;
 use luz::render::{render_with, RenderOptions};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-
-fn embree_compiled() -> bool {
-    luz::accel::compiled_backends().contains(&"embree")
-}
 
 fn assets_present() -> bool {
     let dir = std::env::var_os("LUZ_ASSETS")

@@ -1,22 +1,11 @@
 //! The `luz` binary end to end: bad input gets one located error, exit
 //! status 2, no panic and no output file; good input renders.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn luz(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_luz"))
-        .args(args)
-        .output()
-        .expect("the luz binary runs")
-}
+use common::{luz, temp_dir};
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("luz-cli-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use std::path::Path;
 
 const GOOD: &str = r#"[camera]
 eye = [0, 0, 4]

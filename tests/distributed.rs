@@ -2,6 +2,10 @@
 //! resumed, through the `luz` binary: every way of cutting a render up must
 //! give the image of the straight run.
 
+mod common;
+
+use common::temp_dir;
+
 use luz::render::part::{self, Part};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -22,13 +26,6 @@ fn luz() -> Command {
 
 fn run(args: &[&str]) -> Output {
     luz().args(args).output().expect("the luz binary runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("luz-dist-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 fn scene() -> String {

@@ -7,6 +7,10 @@
 //!
 //! `extreme | backend | rays | self-hits | missed exits | escapes | non-finite`
 
+mod common;
+
+use common::embree_compiled;
+
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
 use luz::image::io::{read, write, WriteOptions};
 use luz::math::{reflect, spawn_ray, Ray, Rgb, Vec3};
@@ -17,18 +21,6 @@ use luz::scene::{load_str, Geometry, Scene};
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
-
-fn embree_compiled() -> bool {
-    if luz::accel::compiled_backends().contains(&"embree") {
-        return true;
-    }
-    assert!(
-        std::env::var_os("LUZ_REQUIRE_EMBREE").is_none(),
-        "LUZ_REQUIRE_EMBREE is set but Embree is not compiled in"
-    );
-    eprintln!("Embree is not compiled into this build: native backend only");
-    false
-}
 
 /// Every backend configuration: native, and Embree with robust off and on.
 fn configs() -> Vec<(&'static str, BackendKind, BuildOptions)> {

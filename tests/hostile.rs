@@ -5,16 +5,13 @@
 //! run under a 1 GiB address-space limit, so a reader that allocated for the
 //! header's count before the data is there aborts instead of passing.
 
-use std::os::unix::process::ExitStatusExt;
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
 
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("luz-hostile-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use common::temp_dir;
+
+use std::os::unix::process::ExitStatusExt;
+use std::path::Path;
+use std::process::{Command, Output};
 
 /// Runs `luz ARGS` with its address space limited to 1 GiB.
 fn luz_limited(args: &[&str]) -> Output {

@@ -3,8 +3,11 @@
 //! saved reference that gives the same errors when read back, and one-line
 //! refusals of bad arguments. No timing is asserted.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+mod common;
+
+use common::{embree_compiled, luz, temp_dir};
+
+use std::path::Path;
 
 const SCENE: &str = r#"[camera]
 eye = [0, 1, 3.5]
@@ -42,24 +45,6 @@ material = "white"
 "#;
 
 const SPP: [u32; 6] = [1, 2, 4, 8, 16, 32];
-
-fn luz(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_luz"))
-        .args(args)
-        .output()
-        .expect("the luz binary runs")
-}
-
-fn temp_dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("luz-study-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn embree_compiled() -> bool {
-    luz::accel::compiled_backends().contains(&"embree")
-}
 
 struct Row {
     setting: String,
