@@ -604,37 +604,12 @@ fn resumed_film(path: &Path, meta: &PartMeta, resolution: (u32, u32)) -> Result<
     };
     let (ours, theirs) = (meta, &saved.meta);
     let saved_resolution = (saved.film.width, saved.film.height);
-    if saved_resolution != resolution {
+    if let Some(m) = part::first_mismatch((ours, resolution), (theirs, saved_resolution)) {
         return Err(refuse(
-            "dataWindow",
+            m.attribute,
             format!(
-                "the checkpoint is {}x{}, this render {}x{}",
-                saved_resolution.0, saved_resolution.1, resolution.0, resolution.1
-            ),
-        ));
-    }
-    if theirs.scene_hash != ours.scene_hash {
-        return Err(refuse(
-            "luz:sceneHash",
-            "the checkpoint is of another scene, resolution, depth or Russian roulette setting"
-                .into(),
-        ));
-    }
-    if theirs.seed != ours.seed {
-        return Err(refuse(
-            "luz:seed",
-            format!(
-                "the checkpoint has seed {}, this render {}",
-                theirs.seed, ours.seed
-            ),
-        ));
-    }
-    if theirs.backend != ours.backend || theirs.version != ours.version {
-        return Err(refuse(
-            "luz:backend",
-            format!(
-                "the checkpoint is of the {} backend of luz {}, this render of the {} backend of luz {}",
-                theirs.backend, theirs.version, ours.backend, ours.version
+                "the checkpoint has {}, this render {}: it is not of this render",
+                m.theirs, m.ours
             ),
         ));
     }

@@ -138,7 +138,7 @@ fn merge_refuses_foreign_overlapping_missing_and_corrupt_parts() {
     };
 
     assert_input_error(&merge(&["a.exr", "seed.exr"], &[]), "seed 9 differs", &out);
-    assert_input_error(&merge(&["a.exr", "depth.exr"], &[]), "scene hash", &out);
+    assert_input_error(&merge(&["a.exr", "depth.exr"], &[]), "luz:sceneHash", &out);
     assert_input_error(
         &merge(&["a.exr", "overlap.exr"], &[]),
         "both hold samples 3..4",
@@ -319,7 +319,7 @@ fn a_checkpoint_of_another_render_is_refused() {
     let args = ["--resume", small.to_str().unwrap()];
     assert_input_error(
         &render(&out, 4, &args),
-        "dataWindow: the checkpoint is 8x8",
+        "dataWindow: the checkpoint has 8x8, this render 24x24",
         &out,
     );
     let other = dir.join("other.exr");

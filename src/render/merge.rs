@@ -2,7 +2,7 @@
 //! up to the film of all their samples (see the determinism rule of the
 //! render loop). Everything that would make the sum wrong is refused.
 
-use super::part::{format_ranges, Part, PartMeta};
+use super::part::{self, format_ranges, Part, PartMeta};
 use super::Film;
 use std::ops::Range;
 use std::path::PathBuf;
@@ -48,34 +48,18 @@ pub struct Merged {
 pub fn merge(mut parts: Vec<(PathBuf, Part)>, allow_gaps: bool) -> Result<Merged, MergeError> {
     let (first_path, first) = parts.first().ok_or(MergeError::Empty)?;
     for (path, part) in &parts[1..] {
-        let mismatch = |field, ours: String, theirs: String| MergeError::Mismatch {
-            path: path.clone(),
-            first: first_path.clone(),
-            field,
-            ours,
-            theirs,
-        };
-        let (a, b) = (&first.film, &part.film);
-        if (a.width, a.height) != (b.width, b.height) {
-            return Err(mismatch(
-                "resolution",
-                format!("{}x{}", a.width, a.height),
-                format!("{}x{}", b.width, b.height),
-            ));
-        }
-        let (a, b) = (&first.meta, &part.meta);
-        let fields: [(&'static str, String, String); 4] = [
-            (
-                "scene hash",
-                format!("{:016x}", a.scene_hash),
-                format!("{:016x}", b.scene_hash),
-            ),
-            ("seed", a.seed.to_string(), b.seed.to_string()),
-            ("backend", a.backend.clone(), b.backend.clone()),
-            ("luz version", a.version.clone(), b.version.clone()),
-        ];
-        if let Some((field, ours, theirs)) = fields.into_iter().find(|(_, a, b)| a != b) {
-            return Err(mismatch(field, ours, theirs));
+        let size = |f: &Film| (f.width, f.height);
+        if let Some(m) = part::first_mismatch(
+            (&first.meta, size(&first.film)),
+            (&part.meta, size(&part.film)),
+        ) {
+            return Err(MergeError::Mismatch {
+                path: path.clone(),
+                first: first_path.clone(),
+                field: m.attribute,
+                ours: m.ours,
+                theirs: m.theirs,
+            });
         }
     }
 
@@ -187,7 +171,7 @@ mod tests {
         let err = merge(vec![part(&[(0, 4)], 1.0), other], false).unwrap_err();
         assert_eq!(
             err.to_string(),
-            "4..8.exr: seed 8 differs from 0..4.exr's 7: parts of different renders cannot be merged"
+            "4..8.exr: luz:seed 8 differs from 0..4.exr's 7: parts of different renders cannot be merged"
         );
 
         let mut other = part(&[(4, 8)], 1.0);
@@ -195,6 +179,6 @@ mod tests {
         let err = merge(vec![part(&[(0, 4)], 1.0), other], false).unwrap_err();
         assert!(err
             .to_string()
-            .contains("resolution 1x2 differs from 0..4.exr's 2x1"));
+            .contains("dataWindow 1x2 differs from 0..4.exr's 2x1"));
     }
 }

@@ -59,6 +59,40 @@ impl PartMeta {
     }
 }
 
+/// A property in which two films differ that parts of one render share:
+/// the attribute that stores it, and its two values.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Mismatch {
+    pub attribute: &'static str,
+    pub ours: String,
+    pub theirs: String,
+}
+
+/// The first property (resolution, scene hash, seed, backend, luz version)
+/// that shows `theirs` (of resolution `their_size`) is not part of the
+/// render `ours` (of `our_size`) is, if any.
+pub fn first_mismatch(
+    (ours, our_size): (&PartMeta, (u32, u32)),
+    (theirs, their_size): (&PartMeta, (u32, u32)),
+) -> Option<Mismatch> {
+    let size = |(w, h): (u32, u32)| format!("{w}x{h}");
+    let hash = |h: u64| format!("{h:016x}");
+    [
+        ("dataWindow", size(our_size), size(their_size)),
+        (SCENE_HASH, hash(ours.scene_hash), hash(theirs.scene_hash)),
+        (SEED, ours.seed.to_string(), theirs.seed.to_string()),
+        (BACKEND, ours.backend.clone(), theirs.backend.clone()),
+        (VERSION, ours.version.clone(), theirs.version.clone()),
+    ]
+    .into_iter()
+    .find(|(_, a, b)| a != b)
+    .map(|(attribute, ours, theirs)| Mismatch {
+        attribute,
+        ours,
+        theirs,
+    })
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Part {
     pub meta: PartMeta,
