@@ -152,8 +152,8 @@ fn t_error(ray: &Ray, a: f32, b: f32) -> f32 {
 
 /// Embree against the native backend on 1e5 random rays per scale and per
 /// build setting: the same closest (geom, prim) for at least 99.9% of rays
-/// (Embree's watertight triangle test and Möller–Trumbore may disagree on
-/// rays through an edge), `t` within 1e-4 relative where they agree, and
+/// (Embree's triangle test and the native one round differently, so they
+/// may disagree on rays through an edge), `t` within 1e-4 relative where they agree, and
 /// occlusion answers that agree as often.
 ///
 /// "Relative" is to the length scale of the computation: `max(t, |o| / |d|)`.

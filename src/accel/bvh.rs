@@ -228,6 +228,7 @@ pub(crate) mod f4 {
         cmpop!(gt, _mm_cmpgt_ps);
         cmpop!(ge, _mm_cmpge_ps);
         cmpop!(ne, _mm_cmpneq_ps);
+        cmpop!(eq, _mm_cmpeq_ps);
         #[inline(always)]
         pub fn abs(self) -> F4 {
             unsafe { F4(_mm_andnot_ps(_mm_set1_ps(-0.0), self.0)) }
@@ -300,6 +301,7 @@ pub(crate) mod f4 {
         cmpop!(gt, |a: f32, b: f32| a > b);
         cmpop!(ge, |a: f32, b: f32| a >= b);
         cmpop!(ne, |a: f32, b: f32| a != b);
+        cmpop!(eq, |a: f32, b: f32| a == b);
         #[inline(always)]
         pub fn abs(self) -> F4 {
             F4(self.0.map(f32::abs))
@@ -1040,7 +1042,7 @@ mod tests {
     }
 
     fn isect(t: &Tri, r: &Ray) -> Option<f32> {
-        intersect_triangle(t[0], t[1] - t[0], t[2] - t[0], r).map(|h| h.t)
+        intersect_triangle(*t, r).map(|h| h.t)
     }
 
     fn brute(tris: &[Tri], ray: &Ray) -> Option<(f32, u32)> {

@@ -2,13 +2,14 @@
 //! one over mesh triangles and one over analytic shapes (spheres, quads,
 //! cuboids); infinite planes are tested outside them.
 //!
-//! Triangles are stored pre-transformed (`p0, e1, e2`) in packs of four,
+//! Triangles are stored by their three vertices in packs of four,
 //! structure of arrays, in the triangle BVH's (4-aligned) leaf order: a leaf
-//! reads its packs sequentially and tests four triangles at once with the
-//! very operations of the scalar `intersect_triangle`, in the same order, so
-//! hits are bit for bit those of the shared routine (and of brute force).
-//! Padding lanes hold degenerate triangles, which are never hit; the scene
-//! ids ride in the pack's third cache line, so a hit needs no other lookup.
+//! reads its packs sequentially and tests four triangles at once, computing
+//! the very values of the shared watertight `intersect_triangle_sheared`,
+//! so hits are bit for bit those of the shared routine
+//! (and of brute force), watertightness included. Padding lanes hold NaN
+//! vertices, which are never hit; the scene ids ride in the pack's last
+//! cache line, so a hit needs no other lookup.
 //!
 //! Why two trees: analytic shapes cost more than a pack of triangles and are
 //! few and large (the walls of a Cornell box); in one packed tree the SAH,
@@ -22,116 +23,131 @@ use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
 use super::planes::InfinitePlanes;
 use super::{Backend, Hit};
 use crate::math::{Aabb, Ray, Vec3};
+use crate::scene::shape::{exact_zeros, is_degenerate, ShearedRay};
 use crate::scene::{Geometry, Scene};
 use std::sync::Arc;
 
-/// Four triangles: `p0[c][k]` is coordinate `c` of triangle `k`'s vertex
-/// 0; `e1`, `e2` its edges to vertices 1 and 2; then the scene's ids of the
-/// four, read only for the final hit, from a cache line the test has
-/// already loaded. Three cache lines.
+/// Four triangles: `p[v][c][k]` is coordinate `c` of vertex `v` of
+/// triangle `k`; then the scene's ids of the four, read only for the final
+/// hit, from a cache line the test has already loaded. Three cache lines.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug)]
 struct TriPack {
-    p0: [[f32; 4]; 3],
-    e1: [[f32; 4]; 3],
-    e2: [[f32; 4]; 3],
+    p: [[[f32; 4]; 3]; 3],
     geom: [u32; 4],
     prim: [u32; 4],
 }
 
 impl TriPack {
-    /// Degenerate in every lane: no ray hits it.
+    /// NaN in every lane: no ray hits it, and no edge function of it is
+    /// zero, so it never takes the f64 path.
     const EMPTY: TriPack = TriPack {
-        p0: [[0.0; 4]; 3],
-        e1: [[0.0; 4]; 3],
-        e2: [[0.0; 4]; 3],
+        p: [[[f32::NAN; 4]; 3]; 3],
         geom: [u32::MAX; 4],
         prim: [u32::MAX; 4],
     };
 
-    fn set(&mut self, k: usize, p0: Vec3, e1: Vec3, e2: Vec3, geom: u32, prim: u32) {
+    fn set(&mut self, k: usize, p: [Vec3; 3], geom: u32, prim: u32) {
         self.geom[k] = geom;
         self.prim[k] = prim;
-        for c in 0..3 {
-            self.p0[c][k] = p0[c];
-            self.e1[c][k] = e1[c];
-            self.e2[c][k] = e2[c];
+        for (v, p) in p.iter().enumerate() {
+            for c in 0..3 {
+                self.p[v][c][k] = p[c];
+            }
         }
     }
 }
 
-/// A ray splatted for pack tests.
+/// A ray in the watertight test's frame, splatted for pack tests.
 struct PackRay {
-    o: [F4; 3],
-    d: [F4; 3],
-    t_min: F4,
+    sheared: ShearedRay,
+    origin: [F4; 3],
+    dir: [F4; 3],
+    s: [F4; 2],
+    t_min: f32,
 }
 
 impl PackRay {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
+        let sheared = ShearedRay::new(ray);
         Self {
-            o: [
-                F4::splat(ray.origin.x),
-                F4::splat(ray.origin.y),
-                F4::splat(ray.origin.z),
-            ],
-            d: [
-                F4::splat(ray.dir.x),
-                F4::splat(ray.dir.y),
-                F4::splat(ray.dir.z),
-            ],
-            t_min: F4::splat(ray.t_min),
+            origin: sheared.origin.to_array().map(F4::splat),
+            dir: sheared.dir.to_array().map(F4::splat),
+            s: sheared.s.map(F4::splat),
+            sheared,
+            t_min: ray.t_min,
         }
     }
 }
 
-/// `a × b`, glam's operation order.
-#[inline(always)]
-fn cross(a: [F4; 3], b: [F4; 3]) -> [F4; 3] {
-    [
-        a[1].mul(b[2]).sub(b[1].mul(a[2])),
-        a[2].mul(b[0]).sub(b[2].mul(a[0])),
-        a[0].mul(b[1]).sub(b[0].mul(a[1])),
-    ]
-}
-
-/// `a · b`, glam's operation order.
-#[inline(always)]
-fn dot(a: [F4; 3], b: [F4; 3]) -> F4 {
-    a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]))
-}
-
-#[inline(always)]
-fn load3(v: &[[f32; 4]; 3]) -> [F4; 3] {
-    [F4::load(&v[0]), F4::load(&v[1]), F4::load(&v[2])]
-}
-
-/// Möller–Trumbore on four triangles, exactly as `intersect_triangle`:
+/// `intersect_triangle_sheared` on four triangles, with the same values:
 /// lane mask of hits in `(t_min, t_max)` and their `t, u, v`.
 #[inline(always)]
 fn intersect_pack(pack: &TriPack, r: &PackRay, t_max: f32) -> (u32, F4, F4, F4) {
-    let e1 = load3(&pack.e1);
-    let e2 = load3(&pack.e2);
-    let pvec = cross(r.d, e2);
-    let det = dot(e1, pvec);
+    let [kx, ky, kz] = r.sheared.k;
+    let [sx, sy] = r.s;
+    let frame = |v: &[[f32; 4]; 3]| {
+        let d = |c: usize| F4::load(&v[c]).sub(r.origin[c]);
+        let (dx, dy, dz) = (d(kx), d(ky), d(kz));
+        (dx.sub(sx.mul(dz)), dy.sub(sy.mul(dz)))
+    };
+    let (ax, ay) = frame(&pack.p[0]);
+    let (bx, by) = frame(&pack.p[1]);
+    let (cx, cy) = frame(&pack.p[2]);
+    let mut e0 = cx.mul(by).sub(cy.mul(bx));
+    let mut e1 = ax.mul(cy).sub(ay.mul(cx));
+    let mut e2 = bx.mul(ay).sub(by.mul(ax));
     let zero = F4::splat(0.0);
-    let one = F4::splat(1.0);
-    let ok = det.ne(zero).and(det.abs().lt(F4::splat(f32::INFINITY)));
-    let inv_det = one.div(det);
-    let p0 = load3(&pack.p0);
-    let tvec = [r.o[0].sub(p0[0]), r.o[1].sub(p0[1]), r.o[2].sub(p0[2])];
-    let u = dot(tvec, pvec).mul(inv_det);
-    let ok = ok.and(u.ge(zero)).and(u.le(one));
-    if ok.bits() == 0 {
+    // Lanes whose edge functions have both signs miss, whatever their zeros
+    // (only zeros change in f64), and so do NaN (padding) lanes: most packs
+    // end here.
+    let one_sign_of = |e0: F4, e1: F4, e2: F4| {
+        e0.min(e1).min(e2).ge(zero).bits() | e0.max(e1).max(e2).le(zero).bits()
+    };
+    let mut one_sign = one_sign_of(e0, e1, e2);
+    if one_sign == 0 {
         return (0, zero, zero, zero);
     }
-    let qvec = cross(tvec, e1);
-    let v = dot(r.d, qvec).mul(inv_det);
-    let ok = ok.and(v.ge(zero)).and(u.add(v).le(one));
-    let t = dot(e2, qvec).mul(inv_det);
-    let ok = ok.and(t.gt(r.t_min)).and(t.lt(F4::splat(t_max)));
-    (ok.bits(), t, u, v)
+    let on_edge = one_sign & (e0.eq(zero).bits() | e1.eq(zero).bits() | e2.eq(zero).bits());
+    if on_edge != 0 {
+        let (mut f0, mut f1, mut f2) = (e0.to_array(), e1.to_array(), e2.to_array());
+        let (ax, ay, bx, by, cx, cy) = (
+            ax.to_array(),
+            ay.to_array(),
+            bx.to_array(),
+            by.to_array(),
+            cx.to_array(),
+            cy.to_array(),
+        );
+        for k in (0..4).filter(|k| on_edge & (1 << k) != 0) {
+            (f0[k], f1[k], f2[k]) = exact_zeros(
+                (f0[k], f1[k], f2[k]),
+                [ax[k], ay[k], bx[k], by[k], cx[k], cy[k]],
+            );
+        }
+        (e0, e1, e2) = (F4::load(&f0), F4::load(&f1), F4::load(&f2));
+        one_sign &= one_sign_of(e0, e1, e2);
+    }
+    let det = e0.add(e1).add(e2);
+    let det_ok = det.ne(zero).and(det.abs().lt(F4::splat(f32::INFINITY)));
+    // `plane_distance`, operation for operation.
+    let row = |v: usize| [0, 1, 2].map(|c| F4::load(&pack.p[v][c]));
+    let (p0, p1, p2) = (row(0), row(1), row(2));
+    let u = [0, 1, 2].map(|c| p1[c].sub(p0[c]));
+    let v = [0, 1, 2].map(|c| p2[c].sub(p0[c]));
+    let n = [
+        u[1].mul(v[2]).sub(u[2].mul(v[1])),
+        u[2].mul(v[0]).sub(u[0].mul(v[2])),
+        u[0].mul(v[1]).sub(u[1].mul(v[0])),
+    ];
+    let w = [0, 1, 2].map(|c| p0[c].sub(r.origin[c]));
+    let dot = |a: [F4; 3]| a[0].mul(n[0]).add(a[1].mul(n[1])).add(a[2].mul(n[2]));
+    let t = dot(w).div(dot(r.dir));
+    let inv_det = F4::splat(1.0).div(det);
+    let in_range = t.gt(F4::splat(r.t_min)).and(t.lt(F4::splat(t_max)));
+    let mask = one_sign & det_ok.and(in_range).bits();
+    (mask, t, e1.mul(inv_det), e2.mul(inv_det))
 }
 
 pub struct NativeBackend {
@@ -164,7 +180,7 @@ impl NativeBackend {
                     for prim in 0..m.triangle_count() as u32 {
                         let [p0, p1, p2] = m.vertices(prim);
                         tri_boxes.push(Aabb::from_points(&[p0, p1, p2]));
-                        tris.push((p0, p1 - p0, p2 - p0, geom, prim));
+                        tris.push(([p0, p1, p2], geom, prim));
                     }
                 }
                 g => {
@@ -200,8 +216,12 @@ impl NativeBackend {
         let mut packs = vec![TriPack::EMPTY; order.len() / 4];
         for (slot, &i) in order.iter().enumerate() {
             if i != PADDING {
-                let (p0, e1, e2, geom, prim) = tris[i as usize];
-                packs[slot / 4].set(slot % 4, p0, e1, e2, geom, prim);
+                let (p, geom, prim) = tris[i as usize];
+                // A degenerate triangle stays NaN, as `intersect_triangle`
+                // never hits it.
+                if !is_degenerate(p) {
+                    packs[slot / 4].set(slot % 4, p, geom, prim);
+                }
             }
         }
         let analytic = analytic_bvh
@@ -243,14 +263,17 @@ impl Backend for NativeBackend {
         let mut r = *ray;
         if let Some(tr) = TravRay::new(ray) {
             // Triangles first: a hit on the mesh culls the walls behind it.
-            let pr = PackRay::new(&r);
+            // The ray is sheared for the triangle test only once it reaches
+            // a leaf: many rays never do.
+            let mut sheared = None;
             let tri = self
                 .tri_bvh
                 .intersect_leaves_prepared(&tr, &r, |first, count, r| {
+                    let pr = sheared.get_or_insert_with(|| PackRay::new(ray));
                     let mut t_max = r.t_max;
                     let mut best = None;
                     for pack in self.packs_of(first, count) {
-                        let (mask, t, u, v) = intersect_pack(pack, &pr, t_max);
+                        let (mask, t, u, v) = intersect_pack(pack, pr, t_max);
                         if mask == 0 {
                             continue;
                         }
@@ -312,12 +335,13 @@ impl Backend for NativeBackend {
         let Some(tr) = TravRay::new(ray) else {
             return false;
         };
-        let pr = PackRay::new(ray);
+        let mut sheared = None;
         self.tri_bvh
             .occluded_leaves_prepared(&tr, ray, |first, count, r| {
+                let pr = sheared.get_or_insert_with(|| PackRay::new(ray));
                 self.packs_of(first, count)
                     .iter()
-                    .any(|pack| intersect_pack(pack, &pr, r.t_max).0 != 0)
+                    .any(|pack| intersect_pack(pack, pr, r.t_max).0 != 0)
             })
             || self
                 .analytic_bvh

@@ -1,8 +1,9 @@
 //! The Embree backend: one Embree device and one scene per backend.
 //!
-//! - Meshes are Embree's native triangle geometry (its own watertight
-//!   intersector, so `t`, `u`, `v` differ from the native Möller–Trumbore in
-//!   the last bits; agreement between backends is statistical).
+//! - Meshes are Embree's native triangle geometry (its own intersector,
+//!   watertight only with `embree_robust`, so `t`, `u`, `v` differ from the
+//!   native watertight test in the last bits; agreement between backends is
+//!   statistical).
 //! - Spheres, quads and cuboids are Embree user geometry whose callbacks call
 //!   the very routines the native backend uses (`Geometry::intersect`).
 //! - Infinite planes are tested outside Embree, exactly as the native backend

@@ -4,6 +4,17 @@
 //!
 //! A hit's `(u, v)` are the barycentrics of vertices 1 and 2, the convention
 //! Embree uses, so both backends hand shading the same numbers.
+//!
+//! The ray-triangle test is watertight (Woop, Benthin and Wald 2013, as in
+//! pbrt-v4): in a frame where the ray runs along +z from the origin, a
+//! triangle is hit when the three 2D edge functions of the ray's point have
+//! one sign. Two triangles sharing an edge compute its edge function from
+//! the same two vertices, with opposite signs, so a ray through the edge
+//! hits at least one of them: no ray slips between the triangles of a
+//! closed mesh. An edge function that rounds to exactly zero is recomputed
+//! in f64, so a ray through a shared vertex is decided exactly too. The
+//! hit's distance is the ray's distance to the triangle's plane (see
+//! `plane_distance`).
 
 use super::{PrimHit, SurfacePoint};
 use crate::math::{gamma, Aabb, Ray, Vec2, Vec3};
@@ -41,11 +52,10 @@ impl Mesh {
         0.5 * (b - a).cross(c - a).length()
     }
 
-    /// Möller–Trumbore. A triangle of zero area is never hit.
+    /// The watertight test; a triangle of zero area is never hit.
     #[inline]
     pub fn intersect_triangle(&self, prim: u32, ray: &Ray) -> Option<PrimHit> {
-        let [p0, p1, p2] = self.vertices(prim);
-        intersect_triangle(p0, p1 - p0, p2 - p0, ray)
+        intersect_triangle(self.vertices(prim), ray)
     }
 
     pub fn surface(&self, prim: u32, hit: &PrimHit) -> SurfacePoint {
@@ -97,25 +107,135 @@ impl Mesh {
     }
 }
 
-/// Möller–Trumbore on `p0 + u e1 + v e2`; `None` for a degenerate triangle.
+/// A ray in the frame of the watertight test: `k` permutes the axes so the
+/// direction's largest component becomes z (x and y swapped when it is
+/// negative, keeping the orientation), and the shear `s` maps the direction
+/// onto the z axis: a point `d` relative to the origin lands at
+/// `(d[kx] - sx d[kz], d[ky] - sy d[kz])` in the plane the edge functions
+/// are computed in.
+#[derive(Clone, Copy, Debug)]
+pub struct ShearedRay {
+    pub origin: Vec3,
+    pub dir: Vec3,
+    pub k: [usize; 3],
+    pub s: [f32; 2],
+}
+
+impl ShearedRay {
+    /// Without branches: the axes depend on the direction, which for
+    /// bounce rays is random, so branches on it would be mispredicted.
+    #[inline]
+    pub fn new(ray: &Ray) -> Self {
+        let d = ray.dir.to_array();
+        let a = ray.dir.abs();
+        let x_largest = (a.x > a.y) & (a.x > a.z);
+        let y_largest = (a.x <= a.y) & (a.y > a.z);
+        let kz = y_largest as usize | (((!x_largest & !y_largest) as usize) << 1);
+        let (kx, ky) = (NEXT_AXIS[kz], NEXT_AXIS[NEXT_AXIS[kz]]);
+        let (kx, ky) = if d[kz] < 0.0 { (ky, kx) } else { (kx, ky) };
+        Self {
+            origin: ray.origin,
+            dir: ray.dir,
+            k: [kx, ky, kz],
+            s: [d[kx] / d[kz], d[ky] / d[kz]],
+        }
+    }
+}
+
+const NEXT_AXIS: [usize; 3] = [1, 2, 0];
+
+/// The watertight test of the triangle `p` against `ray`; `None` for a
+/// degenerate triangle. `(u, v)` of the hit are the barycentrics of `p[1]`
+/// and `p[2]`.
 #[inline]
-pub fn intersect_triangle(p0: Vec3, e1: Vec3, e2: Vec3, ray: &Ray) -> Option<PrimHit> {
-    let pvec = ray.dir.cross(e2);
-    let det = e1.dot(pvec);
+pub fn intersect_triangle(p: [Vec3; 3], ray: &Ray) -> Option<PrimHit> {
+    if is_degenerate(p) {
+        return None;
+    }
+    intersect_triangle_sheared(p, &ShearedRay::new(ray), ray.t_min, ray.t_max)
+}
+
+/// Whether the triangle `p` has zero area. The edge functions of such a
+/// triangle are zero only in exact arithmetic; rounded, they can share a
+/// sign, so the test alone could hit it (pbrt-v4 checks the same).
+#[inline]
+pub fn is_degenerate(p: [Vec3; 3]) -> bool {
+    (p[2] - p[0]).cross(p[1] - p[0]).length_squared() == 0.0
+}
+
+/// `intersect_triangle` of a triangle that is not degenerate, with the ray
+/// already in the test's frame, for a hit in `(t_min, t_max)`. The native
+/// backend's four-wide version computes the very same values.
+#[inline]
+pub fn intersect_triangle_sheared(
+    p: [Vec3; 3],
+    r: &ShearedRay,
+    t_min: f32,
+    t_max: f32,
+) -> Option<PrimHit> {
+    let [kx, ky, kz] = r.k;
+    let [sx, sy] = r.s;
+    let frame = |v: Vec3| {
+        let d = (v - r.origin).to_array();
+        (d[kx] - sx * d[kz], d[ky] - sy * d[kz])
+    };
+    let (ax, ay) = frame(p[0]);
+    let (bx, by) = frame(p[1]);
+    let (cx, cy) = frame(p[2]);
+    let (mut e0, mut e1, mut e2) = (cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
+    if e0 == 0.0 || e1 == 0.0 || e2 == 0.0 {
+        (e0, e1, e2) = exact_zeros((e0, e1, e2), [ax, ay, bx, by, cx, cy]);
+    }
+    if (e0 < 0.0 || e1 < 0.0 || e2 < 0.0) && (e0 > 0.0 || e1 > 0.0 || e2 > 0.0) {
+        return None;
+    }
+    let det = e0 + e1 + e2;
     if det == 0.0 || !det.is_finite() {
         return None;
     }
+    let t = plane_distance(p, r.origin, r.dir);
     let inv_det = 1.0 / det;
-    let tvec = ray.origin - p0;
-    let u = tvec.dot(pvec) * inv_det;
-    if !(0.0..=1.0).contains(&u) {
-        return None;
-    }
-    let qvec = tvec.cross(e1);
-    let v = ray.dir.dot(qvec) * inv_det;
-    if !(v >= 0.0 && u + v <= 1.0) {
-        return None;
-    }
-    let t = e2.dot(qvec) * inv_det;
-    (t > ray.t_min && t < ray.t_max).then_some(PrimHit { t, u, v })
+    (t > t_min && t < t_max).then_some(PrimHit {
+        t,
+        u: e1 * inv_det,
+        v: e2 * inv_det,
+    })
+}
+
+/// The ray parameter at which `origin + t dir` meets the plane of the
+/// triangle `p`, as Möller–Trumbore computes it, written out so the
+/// four-wide version can repeat it operation for operation. The watertight
+/// test's own `t`, the barycentric mean of the vertices' depths, inherits
+/// the rounding of a small determinant on thin triangles: on slivers it put
+/// rays spawned off the surface back onto it (thousands of self-hits in
+/// the extremes tests), where this distance keeps them behind their origin.
+#[inline]
+pub fn plane_distance(p: [Vec3; 3], origin: Vec3, dir: Vec3) -> f32 {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let n = Vec3::new(
+        e1.y * e2.z - e1.z * e2.y,
+        e1.z * e2.x - e1.x * e2.z,
+        e1.x * e2.y - e1.y * e2.x,
+    );
+    let w = p[0] - origin;
+    (w.x * n.x + w.y * n.y + w.z * n.z) / (dir.x * n.x + dir.y * n.y + dir.z * n.z)
+}
+
+/// The edge functions `e`, each that rounded to zero recomputed in f64
+/// from the sheared `x, y` of the three vertices. Only zeros change: a
+/// nonzero sign stands as computed, the same for both triangles of an edge.
+#[inline(never)]
+pub fn exact_zeros(e: (f32, f32, f32), [ax, ay, bx, by, cx, cy]: [f32; 6]) -> (f32, f32, f32) {
+    let exact = |e: f32, a: f32, b: f32, c: f32, d: f32| {
+        if e == 0.0 {
+            (a as f64 * b as f64 - c as f64 * d as f64) as f32
+        } else {
+            e
+        }
+    };
+    (
+        exact(e.0, cx, by, cy, bx),
+        exact(e.1, ax, cy, ay, cx),
+        exact(e.2, bx, ay, by, ax),
+    )
 }
