@@ -5,11 +5,11 @@
 //! Triangles are stored by their three vertices in packs of four,
 //! structure of arrays, in the triangle BVH's (4-aligned) leaf order: a leaf
 //! reads its packs sequentially and tests four triangles at once, computing
-//! the very values of the shared watertight `intersect_triangle_sheared`,
-//! so hits are bit for bit those of the shared routine
-//! (and of brute force), watertightness included. Padding lanes hold NaN
-//! vertices, which are never hit; the scene ids ride in the pack's last
-//! cache line, so a hit needs no other lookup.
+//! the very values of the shared watertight `intersect_triangle`, so hits
+//! are bit for bit those of the shared routine (and of brute force),
+//! watertightness included. Padding lanes hold NaN vertices, which are never
+//! hit; the scene ids ride in the pack's last cache line, so a hit needs no
+//! other lookup.
 //!
 //! Why two trees: analytic shapes cost more than a pack of triangles and are
 //! few and large (the walls of a Cornell box); in one packed tree the SAH,
@@ -23,7 +23,7 @@ use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
 use super::planes::InfinitePlanes;
 use super::{Backend, Hit};
 use crate::math::{Aabb, Ray, Vec3};
-use crate::scene::shape::{exact_zeros, is_degenerate, ShearedRay};
+use crate::scene::shape::{exact_zeros, has_zero_area, ShearedRay};
 use crate::scene::{Geometry, Scene};
 use std::sync::Arc;
 
@@ -81,7 +81,7 @@ impl PackRay {
     }
 }
 
-/// `intersect_triangle_sheared` on four triangles, with the same values:
+/// `intersect_triangle` on four triangles, with the same values:
 /// lane mask of hits in `(t_min, t_max)` and their `t, u, v`.
 #[inline(always)]
 fn intersect_pack(pack: &TriPack, r: &PackRay, t_max: f32) -> (u32, F4, F4, F4) {
@@ -217,9 +217,9 @@ impl NativeBackend {
         for (slot, &i) in order.iter().enumerate() {
             if i != PADDING {
                 let (p, geom, prim) = tris[i as usize];
-                // A degenerate triangle stays NaN, as `intersect_triangle`
-                // never hits it.
-                if !is_degenerate(p) {
+                // A triangle of zero area stays NaN, as
+                // `intersect_triangle` never hits it.
+                if !has_zero_area(p) {
                     packs[slot / 4].set(slot % 4, p, geom, prim);
                 }
             }

@@ -145,34 +145,15 @@ impl ShearedRay {
 const NEXT_AXIS: [usize; 3] = [1, 2, 0];
 
 /// The watertight test of the triangle `p` against `ray`; `None` for a
-/// degenerate triangle. `(u, v)` of the hit are the barycentrics of `p[1]`
-/// and `p[2]`.
+/// triangle of zero area. `(u, v)` of the hit are the barycentrics of `p[1]`
+/// and `p[2]`. The native backend's four-wide version computes the very
+/// same values.
 #[inline]
 pub fn intersect_triangle(p: [Vec3; 3], ray: &Ray) -> Option<PrimHit> {
-    if is_degenerate(p) {
+    if has_zero_area(p) {
         return None;
     }
-    intersect_triangle_sheared(p, &ShearedRay::new(ray), ray.t_min, ray.t_max)
-}
-
-/// Whether the triangle `p` has zero area. The edge functions of such a
-/// triangle are zero only in exact arithmetic; rounded, they can share a
-/// sign, so the test alone could hit it (pbrt-v4 checks the same).
-#[inline]
-pub fn is_degenerate(p: [Vec3; 3]) -> bool {
-    (p[2] - p[0]).cross(p[1] - p[0]).length_squared() == 0.0
-}
-
-/// `intersect_triangle` of a triangle that is not degenerate, with the ray
-/// already in the test's frame, for a hit in `(t_min, t_max)`. The native
-/// backend's four-wide version computes the very same values.
-#[inline]
-pub fn intersect_triangle_sheared(
-    p: [Vec3; 3],
-    r: &ShearedRay,
-    t_min: f32,
-    t_max: f32,
-) -> Option<PrimHit> {
+    let r = ShearedRay::new(ray);
     let [kx, ky, kz] = r.k;
     let [sx, sy] = r.s;
     let frame = |v: Vec3| {
@@ -193,24 +174,34 @@ pub fn intersect_triangle_sheared(
     if det == 0.0 || !det.is_finite() {
         return None;
     }
-    let t = plane_distance(p, r.origin, r.dir);
+    let t = plane_distance(p, ray.origin, ray.dir);
     let inv_det = 1.0 / det;
-    (t > t_min && t < t_max).then_some(PrimHit {
+    (t > ray.t_min && t < ray.t_max).then_some(PrimHit {
         t,
         u: e1 * inv_det,
         v: e2 * inv_det,
     })
 }
 
+/// Whether the triangle `p` has zero area. The edge functions of such a
+/// triangle are zero only in exact arithmetic; rounded, they can share a
+/// sign, so the test alone could hit it (pbrt-v4 checks the same). The
+/// loaders drop more: `mesh_io::is_degenerate` also takes nearly collinear
+/// triangles out of the files they read.
+#[inline]
+pub fn has_zero_area(p: [Vec3; 3]) -> bool {
+    (p[2] - p[0]).cross(p[1] - p[0]).length_squared() == 0.0
+}
+
 /// The ray parameter at which `origin + t dir` meets the plane of the
-/// triangle `p`, as Möller–Trumbore computes it, written out so the
-/// four-wide version can repeat it operation for operation. The watertight
+/// triangle `p`, as Möller–Trumbore computes it, written out so the native
+/// backend's four-wide version can repeat it operation for operation. The watertight
 /// test's own `t`, the barycentric mean of the vertices' depths, inherits
 /// the rounding of a small determinant on thin triangles: on slivers it put
 /// rays spawned off the surface back onto it (thousands of self-hits in
 /// the extremes tests), where this distance keeps them behind their origin.
 #[inline]
-pub fn plane_distance(p: [Vec3; 3], origin: Vec3, dir: Vec3) -> f32 {
+fn plane_distance(p: [Vec3; 3], origin: Vec3, dir: Vec3) -> f32 {
     let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
     let n = Vec3::new(
         e1.y * e2.z - e1.z * e2.y,

@@ -9,9 +9,7 @@ mod quad;
 mod sphere;
 
 pub use cuboid::Cuboid;
-pub use mesh::{
-    exact_zeros, intersect_triangle, intersect_triangle_sheared, is_degenerate, Mesh, ShearedRay,
-};
+pub use mesh::{exact_zeros, has_zero_area, intersect_triangle, Mesh, ShearedRay};
 pub use plane::Plane;
 pub use quad::Quad;
 pub use sphere::Sphere;
