@@ -6,6 +6,7 @@ pub mod accel;
 pub mod image;
 mod location;
 pub mod math;
+mod names;
 pub mod render;
 pub mod sampling;
 pub mod scene;

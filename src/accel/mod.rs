@@ -62,15 +62,7 @@ impl std::str::FromStr for BackendKind {
         if s == "native" {
             return Ok(Self::Rust);
         }
-        Self::ALL
-            .into_iter()
-            .find(|k| k.name() == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown backend `{s}` (known: {})",
-                    Self::ALL.map(Self::name).join(", ")
-                )
-            })
+        crate::names::parse(s, &Self::ALL, Self::name, "backend")
     }
 }
 
@@ -99,15 +91,7 @@ impl EmbreeQuality {
 impl std::str::FromStr for EmbreeQuality {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
-        Self::ALL
-            .into_iter()
-            .find(|q| q.name() == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown Embree quality `{s}` (known: {})",
-                    Self::ALL.map(Self::name).join(", ")
-                )
-            })
+        crate::names::parse(s, &Self::ALL, Self::name, "Embree quality")
     }
 }
 

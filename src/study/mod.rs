@@ -39,15 +39,7 @@ impl std::str::FromStr for Vary {
         if s == "rr" {
             return Ok(Self::RussianRoulette);
         }
-        Self::ALL
-            .into_iter()
-            .find(|v| v.name() == s)
-            .ok_or_else(|| {
-                format!(
-                    "unknown study dimension `{s}` (known: {})",
-                    Self::ALL.map(Self::name).join(", ")
-                )
-            })
+        crate::names::parse(s, &Self::ALL, Self::name, "study dimension")
     }
 }
 
