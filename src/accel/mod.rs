@@ -25,15 +25,37 @@ pub trait Backend: Send + Sync {
     fn occluded(&self, ray: &Ray) -> bool;
 }
 
+/// What a backend's own tree answers, for rays `Accel` has already checked
+/// (finite origin and direction, `t_min` not NaN) and whose `t_max` its
+/// root shapes have already shortened.
+pub trait Tree: Send + Sync {
+    fn name(&self) -> &'static str;
+    /// Closest hit of the tree's shapes in `(ray.t_min, ray.t_max)`.
+    fn closest(&self, ray: &Ray) -> Option<Hit>;
+    /// Whether any of the tree's shapes is hit in `(ray.t_min, ray.t_max)`.
+    fn any_hit(&self, ray: &Ray) -> bool;
+}
+
 pub mod bvh;
 #[cfg(luz_embree)]
 pub mod embree;
 pub mod native;
-mod planes;
+mod root;
 
 use crate::scene::Scene;
 use native::NativeBackend;
+use root::RootShapes;
 use std::sync::Arc;
+
+/// Whether a ray can be traced: finite origin and direction, `t_min` not
+/// NaN, `t_min < t_max`. No box or shape test can handle the others, which
+/// hit nothing. Branch-free: `x - x` is 0 for finite `x` and NaN otherwise,
+/// so one comparison covers all seven numbers.
+#[inline(always)]
+pub(crate) fn traceable(ray: &Ray) -> bool {
+    let zeros = (ray.origin - ray.origin) + (ray.dir - ray.dir);
+    ((zeros.element_sum() + (ray.t_min - ray.t_min)) == 0.0) & (ray.t_min < ray.t_max)
+}
 
 /// Which backend to build; `Auto` is Embree when compiled in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -109,9 +131,16 @@ pub enum AccelError {
     Embree(String),
 }
 
-/// A built backend. An enum, so the render loop is monomorphised per backend
-/// and no virtual call sits in the hot path.
-pub enum Accel {
+/// A built backend: the root shapes `Accel` tests itself (`root`), over
+/// one backend's tree. The tree is an enum, so the render loop is
+/// monomorphised per backend (`Accel::over`) and no virtual call sits in the
+/// hot path.
+pub struct Accel {
+    root: RootShapes,
+    tree: AccelTree,
+}
+
+pub enum AccelTree {
     Native(NativeBackend),
     #[cfg(luz_embree)]
     Embree(embree::EmbreeBackend),
@@ -123,46 +152,93 @@ impl Accel {
         kind: BackendKind,
         options: &BuildOptions,
     ) -> Result<Self, AccelError> {
-        match kind {
-            BackendKind::Rust => Ok(Accel::Native(NativeBackend::new(scene.clone()))),
+        let (root, in_root) = RootShapes::of(&scene.shapes);
+        let native = || AccelTree::Native(NativeBackend::new(&scene.shapes, &in_root));
+        let tree = match kind {
+            BackendKind::Rust => native(),
             #[cfg(luz_embree)]
-            BackendKind::Embree | BackendKind::Auto => Ok(Accel::Embree(
-                embree::EmbreeBackend::new(scene.clone(), options)?,
-            )),
+            BackendKind::Embree | BackendKind::Auto => AccelTree::Embree(
+                embree::EmbreeBackend::new(scene.clone(), &in_root, options)?,
+            ),
             #[cfg(not(luz_embree))]
             BackendKind::Auto => {
                 let _ = options;
-                Ok(Accel::Native(NativeBackend::new(scene.clone())))
+                native()
             }
             #[cfg(not(luz_embree))]
-            BackendKind::Embree => Err(AccelError::EmbreeMissing),
+            BackendKind::Embree => return Err(AccelError::EmbreeMissing),
+        };
+        Ok(Self { root, tree })
+    }
+
+    pub fn tree(&self) -> &AccelTree {
+        &self.tree
+    }
+
+    /// The whole query, root shapes and `tree`, with `tree` one of this
+    /// accel's (`Accel::tree`) as a concrete type.
+    pub fn over<'a, T: Tree>(&'a self, tree: &'a T) -> Layered<'a, T> {
+        Layered {
+            root: &self.root,
+            tree,
         }
+    }
+}
+
+/// Root shapes over a tree: the complete `Backend`.
+pub struct Layered<'a, T> {
+    root: &'a RootShapes,
+    tree: &'a T,
+}
+
+impl<T: Tree> Backend for Layered<'_, T> {
+    fn name(&self) -> &'static str {
+        self.tree.name()
+    }
+
+    #[inline]
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !traceable(ray) {
+            return None;
+        }
+        // The root first: its walls bound how far the tree is walked.
+        let root = self.root.closest(ray);
+        let mut r = *ray;
+        if let Some(h) = &root {
+            r.t_max = h.t;
+        }
+        self.tree.closest(&r).or(root)
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray) -> bool {
+        traceable(ray) && (self.root.any_hit(ray) || self.tree.any_hit(ray))
     }
 }
 
 /// Per-ray dispatch, for tests and tools; the render loop matches once.
 impl Backend for Accel {
     fn name(&self) -> &'static str {
-        match self {
-            Accel::Native(b) => b.name(),
+        match &self.tree {
+            AccelTree::Native(b) => b.name(),
             #[cfg(luz_embree)]
-            Accel::Embree(b) => b.name(),
+            AccelTree::Embree(b) => b.name(),
         }
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        match self {
-            Accel::Native(b) => b.intersect(ray),
+        match &self.tree {
+            AccelTree::Native(b) => self.over(b).intersect(ray),
             #[cfg(luz_embree)]
-            Accel::Embree(b) => b.intersect(ray),
+            AccelTree::Embree(b) => self.over(b).intersect(ray),
         }
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
-        match self {
-            Accel::Native(b) => b.occluded(ray),
+        match &self.tree {
+            AccelTree::Native(b) => self.over(b).occluded(ray),
             #[cfg(luz_embree)]
-            Accel::Embree(b) => b.occluded(ray),
+            AccelTree::Embree(b) => self.over(b).occluded(ray),
         }
     }
 }

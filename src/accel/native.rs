@@ -1,6 +1,7 @@
-//! The native Rust backend: two BVHs over the scene's finite primitives,
-//! one over mesh triangles and one over analytic shapes (spheres, quads,
-//! cuboids); infinite planes are tested outside them.
+//! The native Rust backend: two BVHs over the shapes `Accel` does not test
+//! at the root, one over mesh triangles and one over analytic shapes
+//! (spheres, quads, cuboids; used only when a scene has more than
+//! `root::ROOT_LIMIT` of them).
 //!
 //! Triangles are stored by their three vertices in packs of four,
 //! structure of arrays, in the triangle BVH's (4-aligned) leaf order: a leaf
@@ -11,21 +12,20 @@
 //! hit; the scene ids ride in the pack's last cache line, so a hit needs no
 //! other lookup.
 //!
-//! Why two trees: analytic shapes cost more than a pack of triangles and are
-//! few and large (the walls of a Cornell box); in one packed tree the SAH,
-//! which counts packs, put several walls in one leaf and every ray paid for
-//! all of them (measured: 40% slower). The closest-hit query traverses the
-//! triangles first, so a mesh hit culls the walls behind it; both trees share
-//! one prepared ray.
+//! Why two trees: analytic shapes cost more than a pack of triangles; in one
+//! packed tree the SAH, which counts packs, put several of them in one leaf
+//! and every ray paid for all of them (measured: 40% slower). The
+//! closest-hit query traverses the triangles first, so a mesh hit culls the
+//! shapes behind it; both trees share one prepared ray. The backend keeps
+//! its own copies of what it tests (triangle packs, small analytic shapes),
+//! so it needs the scene's shapes only while it is built.
 
-use super::bvh::f4::F4;
 use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
-use super::planes::InfinitePlanes;
-use super::{Backend, Hit};
+use super::{Hit, Tree};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::shape::{exact_zeros, has_zero_area, ShearedRay};
-use crate::scene::{Geometry, Scene};
-use std::sync::Arc;
+use crate::scene::{Geometry, Shape};
+use crate::simd::F4;
 
 /// Four triangles: `p[v][c][k]` is coordinate `c` of vertex `v` of
 /// triangle `k`; then the scene's ids of the four, read only for the final
@@ -151,31 +151,33 @@ fn intersect_pack(pack: &TriPack, r: &PackRay, t_max: f32) -> (u32, F4, F4, F4) 
 }
 
 pub struct NativeBackend {
-    scene: Arc<Scene>,
     /// Over mesh triangles, 4-aligned leaves.
     tri_bvh: Bvh,
     /// Pack `slot / 4`, lane `slot % 4`.
     packs: Vec<TriPack>,
-    /// Over analytic shapes; `analytic[slot]` is the shape.
+    /// Over the analytic shapes not at the root (`Accel`'s): scene id and
+    /// a copy of each, in slot order. Empty in most scenes.
     analytic_bvh: Bvh,
-    analytic: Vec<u32>,
-    planes: InfinitePlanes,
+    analytic: Vec<(u32, Geometry)>,
 }
 
 impl NativeBackend {
-    pub fn new(scene: Arc<Scene>) -> Self {
-        Self::with_quality(scene, BuildQuality::Balanced)
+    /// The trees over `shapes`, less those `in_root` (which `Accel` tests).
+    pub fn new(shapes: &[Shape], in_root: &[bool]) -> Self {
+        Self::with_quality(shapes, in_root, BuildQuality::Balanced)
     }
 
-    pub fn with_quality(scene: Arc<Scene>, quality: BuildQuality) -> Self {
+    pub fn with_quality(shapes: &[Shape], in_root: &[bool], quality: BuildQuality) -> Self {
         let mut tri_boxes = Vec::new();
         let mut tris = Vec::new();
         let mut boxes = Vec::new();
-        let mut shapes = Vec::new();
-        for (geom, shape) in scene.shapes.iter().enumerate() {
+        let mut analytic = Vec::new();
+        for (geom, shape) in shapes.iter().enumerate() {
+            if in_root[geom] {
+                continue;
+            }
             let geom = geom as u32;
             match &shape.geometry {
-                Geometry::Plane(_) => {}
                 Geometry::Mesh(m) => {
                     for prim in 0..m.triangle_count() as u32 {
                         let [p0, p1, p2] = m.vertices(prim);
@@ -184,8 +186,8 @@ impl NativeBackend {
                     }
                 }
                 g => {
-                    boxes.push(g.primitive_bounds(0).expect("finite shapes have bounds"));
-                    shapes.push(geom);
+                    boxes.push(g.primitive_bounds(0).expect("planes are root shapes"));
+                    analytic.push((geom, g.clone()));
                 }
             }
         }
@@ -227,11 +229,9 @@ impl NativeBackend {
         let analytic = analytic_bvh
             .primitive_indices()
             .iter()
-            .map(|&i| shapes[i as usize])
+            .map(|&i| analytic[i as usize].clone())
             .collect();
         Self {
-            planes: InfinitePlanes::of(&scene.shapes),
-            scene,
             tri_bvh,
             packs,
             analytic_bvh,
@@ -249,26 +249,21 @@ impl NativeBackend {
         let (a, n) = (first as usize / 4, (count as usize).div_ceil(4));
         &self.packs[a..a + n]
     }
-}
 
-impl Backend for NativeBackend {
-    fn name(&self) -> &'static str {
-        "rust"
+    #[inline(always)]
+    fn analytic_of(&self, first: u32, count: u32) -> &[(u32, Geometry)] {
+        &self.analytic[first as usize..(first + count) as usize]
     }
 
-    #[inline]
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let shapes = &self.scene.shapes;
-        let mut best = None;
-        let mut r = *ray;
-        if let Some(tr) = TravRay::new(ray) {
-            // Triangles first: a hit on the mesh culls the walls behind it.
-            // The ray is sheared for the triangle test only once it reaches
-            // a leaf: many rays never do.
-            let mut sheared = None;
-            let tri = self
-                .tri_bvh
-                .intersect_leaves_prepared(&tr, &r, |first, count, r| {
+    /// The closest triangle hit below `ray.t_max`.
+    #[inline(always)]
+    fn closest_triangle(&self, tr: &TravRay, ray: &Ray) -> Option<Hit> {
+        // The ray is sheared for the triangle test only once it reaches a
+        // leaf: many rays never do.
+        let mut sheared = None;
+        let (t, (pack, k, u, v)) =
+            self.tri_bvh
+                .intersect_leaves_prepared(tr, ray, |first, count, r| {
                     let pr = sheared.get_or_insert_with(|| PackRay::new(ray));
                     let mut t_max = r.t_max;
                     let mut best = None;
@@ -287,54 +282,65 @@ impl Backend for NativeBackend {
                         }
                     }
                     best
-                });
-            if let Some((t, (pack, k, u, v))) = tri {
-                r.t_max = t;
-                best = Some(Hit {
-                    t,
-                    geom: pack.geom[k],
-                    prim: pack.prim[k],
-                    u,
-                    v,
-                });
-            }
-            // Then analytic shapes, culled by the triangle hit.
-            let analytic =
-                self.analytic_bvh
-                    .intersect_leaves_prepared(&tr, &r, |first, count, r| {
-                        let mut r = *r;
-                        let mut best = None;
-                        for &geom in &self.analytic[first as usize..(first + count) as usize] {
-                            if let Some(h) = shapes[geom as usize].geometry.intersect(0, &r) {
-                                r.t_max = h.t;
-                                best = Some((h.t, (geom, h.u, h.v)));
-                            }
+                })?;
+        Some(Hit {
+            t,
+            geom: pack.geom[k],
+            prim: pack.prim[k],
+            u,
+            v,
+        })
+    }
+
+    /// The closest hit of the analytic tree below `ray.t_max`.
+    #[inline(always)]
+    fn closest_analytic(&self, tr: &TravRay, ray: &Ray) -> Option<Hit> {
+        let (t, (geom, u, v)) =
+            self.analytic_bvh
+                .intersect_leaves_prepared(tr, ray, |first, count, r| {
+                    let mut r = *r;
+                    let mut best = None;
+                    for (geom, g) in self.analytic_of(first, count) {
+                        if let Some(h) = g.intersect(0, &r) {
+                            r.t_max = h.t;
+                            best = Some((h.t, (*geom, h.u, h.v)));
                         }
-                        best
-                    });
-            if let Some((t, (geom, u, v))) = analytic {
-                r.t_max = t;
-                best = Some(Hit {
-                    t,
-                    geom,
-                    prim: 0,
-                    u,
-                    v,
-                });
-            }
-        }
-        self.planes.closest(shapes, &r, best)
+                    }
+                    best
+                })?;
+        Some(Hit {
+            t,
+            geom,
+            prim: 0,
+            u,
+            v,
+        })
+    }
+}
+
+impl Tree for NativeBackend {
+    fn name(&self) -> &'static str {
+        "rust"
     }
 
     #[inline]
-    fn occluded(&self, ray: &Ray) -> bool {
-        let shapes = &self.scene.shapes;
-        if self.planes.any_hit(shapes, ray) {
-            return true;
+    fn closest(&self, ray: &Ray) -> Option<Hit> {
+        let tr = TravRay::new(ray);
+        // Triangles first: a hit on the mesh culls the shapes behind it.
+        let tri = self.closest_triangle(&tr, ray);
+        if self.analytic.is_empty() {
+            return tri;
         }
-        let Some(tr) = TravRay::new(ray) else {
-            return false;
-        };
+        let mut r = *ray;
+        if let Some(h) = &tri {
+            r.t_max = h.t;
+        }
+        self.closest_analytic(&tr, &r).or(tri)
+    }
+
+    #[inline]
+    fn any_hit(&self, ray: &Ray) -> bool {
+        let tr = TravRay::new(ray);
         let mut sheared = None;
         self.tri_bvh
             .occluded_leaves_prepared(&tr, ray, |first, count, r| {
@@ -346,9 +352,9 @@ impl Backend for NativeBackend {
             || self
                 .analytic_bvh
                 .occluded_leaves_prepared(&tr, ray, |first, count, r| {
-                    self.analytic[first as usize..(first + count) as usize]
+                    self.analytic_of(first, count)
                         .iter()
-                        .any(|&g| shapes[g as usize].geometry.intersect(0, r).is_some())
+                        .any(|(_, g)| g.intersect(0, r).is_some())
                 })
     }
 }

@@ -13,7 +13,7 @@ pub mod task;
 pub use film::{Film, PixelSum};
 pub use integrator::{Integrator, IntegratorSettings, RayCounts};
 
-use crate::accel::Backend;
+use crate::accel::{Accel, AccelTree, Backend};
 use crate::math::Vec2;
 use crate::sampling::Rng;
 use crate::scene::Scene;
@@ -151,28 +151,28 @@ pub fn render_into<B: Backend + ?Sized>(
 /// `render` with the backend held in an `Accel`.
 pub fn render_with(
     scene: &Scene,
-    accel: &crate::accel::Accel,
+    accel: &Accel,
     options: &RenderOptions,
     progress: &dyn Progress,
 ) -> (Film, RenderStats) {
-    match accel {
-        crate::accel::Accel::Native(b) => render(scene, b, options, progress),
+    match accel.tree() {
+        AccelTree::Native(t) => render(scene, &accel.over(t), options, progress),
         #[cfg(luz_embree)]
-        crate::accel::Accel::Embree(b) => render(scene, b, options, progress),
+        AccelTree::Embree(t) => render(scene, &accel.over(t), options, progress),
     }
 }
 
 /// `render_into` with the backend held in an `Accel`.
 pub fn render_into_with(
     scene: &Scene,
-    accel: &crate::accel::Accel,
+    accel: &Accel,
     options: &RenderOptions,
     film: &mut Film,
     progress: &dyn Progress,
 ) -> RenderStats {
-    match accel {
-        crate::accel::Accel::Native(b) => render_into(scene, b, options, film, progress),
+    match accel.tree() {
+        AccelTree::Native(t) => render_into(scene, &accel.over(t), options, film, progress),
         #[cfg(luz_embree)]
-        crate::accel::Accel::Embree(b) => render_into(scene, b, options, film, progress),
+        AccelTree::Embree(t) => render_into(scene, &accel.over(t), options, film, progress),
     }
 }

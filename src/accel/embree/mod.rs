@@ -4,15 +4,16 @@
 //!   watertight only with `embree_robust`, so `t`, `u`, `v` differ from the
 //!   native watertight test in the last bits; agreement between backends is
 //!   statistical).
-//! - Spheres, quads and cuboids are Embree user geometry whose callbacks call
-//!   the very routines the native backend uses (`Geometry::intersect`).
-//! - Infinite planes are tested outside Embree, exactly as the native backend
-//!   does. Embree needs finite bounds for every primitive; "huge" finite
-//!   bounds (say ±1e30) would put a box around the whole scene into its BVH
-//!   that every ray enters, would lose any ray or plane beyond it, and with
-//!   the compressed node formats risks overflow in the quantised bounds. A
-//!   scene has a handful of planes at most, so the loop costs nothing, and
-//!   planes then give bit-identical answers in both backends.
+//! - Infinite planes, and spheres, quads and cuboids when a scene has few
+//!   of them, are tested outside Embree by `Accel` (`accel::root`), for both
+//!   backends alike. Embree needs finite bounds for every primitive; "huge"
+//!   finite bounds (say ±1e30) would put a box around the whole scene into
+//!   its BVH that every ray enters, would lose any ray or plane beyond it,
+//!   and with the compressed node formats risks overflow in the quantised
+//!   bounds.
+//! - The analytic shapes of scenes with many of them are Embree user
+//!   geometry whose callbacks call the very routines the native backend uses
+//!   (`Geometry::intersect`).
 //!
 //! Every geometry is attached with `rtcAttachGeometryByID` under the scene's
 //! own shape index, so Embree's `geomID` is `Hit::geom` without remapping.
@@ -23,8 +24,7 @@
 mod sys3;
 
 use self::sys3 as sys;
-use super::planes::InfinitePlanes;
-use super::{AccelError, Backend, BuildOptions, EmbreeQuality, Hit};
+use super::{AccelError, BuildOptions, Hit, Tree};
 use crate::math::{Aabb, Ray};
 use crate::scene::shape::PrimHit;
 use crate::scene::{Geometry, Scene};
@@ -35,18 +35,9 @@ pub struct EmbreeBackend {
     // `scene`'s shapes) goes first, the shapes last.
     rtc: sys::Scene,
     device: sys::Device,
-    planes: InfinitePlanes,
-    scene: Arc<Scene>,
-}
-
-impl From<EmbreeQuality> for sys::Quality {
-    fn from(q: EmbreeQuality) -> Self {
-        match q {
-            EmbreeQuality::Low => sys::Quality::Low,
-            EmbreeQuality::Medium => sys::Quality::Medium,
-            EmbreeQuality::High => sys::Quality::High,
-        }
-    }
+    /// Owns the vertex and index buffers Embree reads (shared, not copied)
+    /// and the user geometry it calls back into.
+    _scene: Arc<Scene>,
 }
 
 /// Spheres, quads and cuboids as Embree user primitives (one per shape).
@@ -68,29 +59,38 @@ impl sys::UserPrimitives for Geometry {
 }
 
 impl EmbreeBackend {
-    pub fn new(scene: Arc<Scene>, options: &BuildOptions) -> Result<Self, AccelError> {
-        Self::with_device_config(scene, options, None)
+    /// Embree's scene of the shapes of `scene`, less those `in_root`
+    /// (which `Accel` tests).
+    pub fn new(
+        scene: Arc<Scene>,
+        in_root: &[bool],
+        options: &BuildOptions,
+    ) -> Result<Self, AccelError> {
+        Self::with_device_config(scene, in_root, options, None)
     }
 
     /// `new` with an Embree device configuration string (`rtcNewDevice`'s
     /// argument, e.g. "threads=4,verbose=1"); `None` is Embree's default.
     pub fn with_device_config(
         scene: Arc<Scene>,
+        in_root: &[bool],
         options: &BuildOptions,
         config: Option<&str>,
     ) -> Result<Self, AccelError> {
         let device = sys::Device::new(config).map_err(AccelError::Embree)?;
-        let quality = sys::Quality::from(options.embree_quality);
+        let quality = options.embree_quality;
         let rtc = device
             .new_scene(quality, options.embree_robust)
             .map_err(AccelError::Embree)?;
         for (id, shape) in scene.shapes.iter().enumerate() {
+            if in_root[id] {
+                continue;
+            }
             let id = u32::try_from(id)
                 .ok()
                 .filter(|&i| i != u32::MAX)
                 .ok_or_else(|| AccelError::Embree("more shapes than Embree has ids".into()))?;
             let geom = match &shape.geometry {
-                Geometry::Plane(_) => continue,
                 Geometry::Mesh(m) => {
                     if m.indices.is_empty() {
                         continue;
@@ -127,8 +127,7 @@ impl EmbreeBackend {
         Ok(Self {
             rtc,
             device,
-            planes: InfinitePlanes::of(&scene.shapes),
-            scene,
+            _scene: scene,
         })
     }
 
@@ -145,37 +144,19 @@ pub fn library_version() -> Option<String> {
 
 /// Rays Embree must not see: it leaves the behaviour on NaN/infinite
 /// origins or directions undefined, while luz's routines miss them.
-#[inline]
-fn traceable(ray: &Ray) -> bool {
-    ray.origin.is_finite() && ray.dir.is_finite() && !ray.t_min.is_nan() && !ray.t_max.is_nan()
-}
-
-impl Backend for EmbreeBackend {
+impl Tree for EmbreeBackend {
     fn name(&self) -> &'static str {
         "embree"
     }
 
     #[inline]
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if !traceable(ray) {
-            return None;
-        }
-        let best = self.rtc.intersect(ray).map(|h| Hit {
-            t: h.t,
-            geom: h.geom,
-            prim: h.prim,
-            u: h.u,
-            v: h.v,
-        });
-        self.planes.closest(&self.scene.shapes, ray, best)
+    fn closest(&self, ray: &Ray) -> Option<Hit> {
+        self.rtc.intersect(ray)
     }
 
     #[inline]
-    fn occluded(&self, ray: &Ray) -> bool {
-        if !traceable(ray) {
-            return false;
-        }
-        self.planes.any_hit(&self.scene.shapes, ray) || self.rtc.occluded(ray)
+    fn any_hit(&self, ray: &Ray) -> bool {
+        self.rtc.occluded(ray)
     }
 }
 
@@ -206,27 +187,30 @@ mod tests {
                 uvs: None,
             }),
         ]);
-        let b = EmbreeBackend::new(scene, &BuildOptions::default()).unwrap();
+        // Nothing at the root: the sphere is user geometry.
+        let b = EmbreeBackend::new(scene, &[false, false], &BuildOptions::default()).unwrap();
         let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), -Vec3::Z);
-        let h = b.intersect(&down(0.0)).unwrap();
+        let h = b.closest(&down(0.0)).unwrap();
         assert_eq!((h.geom, h.prim), (1, 0));
         assert!((h.t - 2.0).abs() < 1e-6);
         // Beyond the triangle's tip at x = 0.9, only the sphere.
-        let h = b.intersect(&down(0.9)).unwrap();
+        let h = b.closest(&down(0.9)).unwrap();
         assert_eq!((h.geom, h.prim), (0, 0));
-        assert!(b.occluded(&down(0.9)));
-        assert!(!b.occluded(&Ray::segment(Vec3::new(0.9, 0.0, 0.0), -Vec3::Z, 3.0)));
-        assert!(b.intersect(&down(3.0)).is_none());
-        let nan = Ray::new(Vec3::splat(f32::NAN), -Vec3::Z);
-        assert!(b.intersect(&nan).is_none() && !b.occluded(&nan));
+        assert!(b.any_hit(&down(0.9)));
+        assert!(!b.any_hit(&Ray::segment(Vec3::new(0.9, 0.0, 0.0), -Vec3::Z, 3.0)));
+        assert!(b.closest(&down(3.0)).is_none());
         assert_eq!(b.version().split('.').next(), Some("3"));
     }
 
     #[test]
     fn embree_failures_become_accel_errors() {
         let scene = scene_of(vec![]);
-        match EmbreeBackend::with_device_config(scene, &BuildOptions::default(), Some("threads=x"))
-        {
+        match EmbreeBackend::with_device_config(
+            scene,
+            &[],
+            &BuildOptions::default(),
+            Some("threads=x"),
+        ) {
             Err(AccelError::Embree(m)) => assert!(m.contains("rtcNewDevice"), "{m}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("built"),
@@ -240,7 +224,7 @@ mod tests {
             indices: vec![[0, 1, 7]],
             uvs: None,
         })]);
-        match EmbreeBackend::new(scene, &BuildOptions::default()) {
+        match EmbreeBackend::new(scene, &[false], &BuildOptions::default()) {
             Err(AccelError::Embree(m)) => assert!(m.contains("vertex 7"), "{m}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("built"),

@@ -11,6 +11,7 @@
 //! callback argument structs change and the library is `embree4`) can sit
 //! beside this one behind the same API.
 
+use crate::accel::{EmbreeQuality, Hit};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::shape::PrimHit;
 use std::ffi::{c_char, c_uint, c_void, CStr, CString};
@@ -61,21 +62,12 @@ fn error_name(code: RTCError) -> &'static str {
 // ---------------------------------------------------------------------------
 // Safe layer.
 
-/// BVH build quality, as Embree names it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Quality {
-    Low,
-    Medium,
-    High,
-}
-
-impl Quality {
-    fn raw(self) -> RTCBuildQuality {
-        match self {
-            Quality::Low => RTC_BUILD_QUALITY_LOW,
-            Quality::Medium => RTC_BUILD_QUALITY_MEDIUM,
-            Quality::High => RTC_BUILD_QUALITY_HIGH,
-        }
+/// Embree 3's name of a build quality.
+fn raw_quality(quality: EmbreeQuality) -> RTCBuildQuality {
+    match quality {
+        EmbreeQuality::Low => RTC_BUILD_QUALITY_LOW,
+        EmbreeQuality::Medium => RTC_BUILD_QUALITY_MEDIUM,
+        EmbreeQuality::High => RTC_BUILD_QUALITY_HIGH,
     }
 }
 
@@ -175,7 +167,7 @@ impl Device {
         Err(format!("{what}: {detail}"))
     }
 
-    pub fn new_scene(&self, quality: Quality, robust: bool) -> Result<Scene, String> {
+    pub fn new_scene(&self, quality: EmbreeQuality, robust: bool) -> Result<Scene, String> {
         // SAFETY: valid device; a null scene is checked below.
         let raw = unsafe { rtcNewScene(self.raw) };
         self.check("rtcNewScene")?;
@@ -184,7 +176,7 @@ impl Device {
         }
         let scene = Scene { raw };
         unsafe {
-            rtcSetSceneBuildQuality(raw, quality.raw());
+            rtcSetSceneBuildQuality(raw, raw_quality(quality));
             rtcSetSceneFlags(
                 raw,
                 if robust {
@@ -215,14 +207,14 @@ impl Device {
         &self,
         positions: &[Vec3],
         indices: &[[u32; 3]],
-        quality: Quality,
+        quality: EmbreeQuality,
     ) -> Result<Geometry, String> {
         assert!(indices
             .iter()
             .all(|t| t.iter().all(|&i| (i as usize) < positions.len())));
         let geom = self.new_geometry(RTC_GEOMETRY_TYPE_TRIANGLE)?;
         unsafe {
-            rtcSetGeometryBuildQuality(geom.raw, quality.raw());
+            rtcSetGeometryBuildQuality(geom.raw, raw_quality(quality));
             let v = rtcSetNewGeometryBuffer(
                 geom.raw,
                 RTC_BUFFER_TYPE_VERTEX,
@@ -336,16 +328,6 @@ impl Drop for Scene {
     }
 }
 
-/// A closest hit as Embree reports it.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RawHit {
-    pub t: f32,
-    pub geom: u32,
-    pub prim: u32,
-    pub u: f32,
-    pub v: f32,
-}
-
 fn to_rtc_ray(ray: &Ray) -> RTCRay {
     RTCRay {
         org_x: ray.origin.x,
@@ -367,7 +349,7 @@ impl Scene {
     /// Closest hit in the ray's interval (Embree's: `tnear < t <= tfar` for
     /// its triangles; user primitives use luz's open interval).
     #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<RawHit> {
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut rh = RTCRayHit {
             ray: to_rtc_ray(ray),
             hit: RTCHit {
@@ -384,7 +366,7 @@ impl Scene {
         let mut ctx = RTCIntersectContext::new();
         // SAFETY: committed scene; both structs live across the call.
         unsafe { rtcIntersect1(self.raw, &mut ctx, &mut rh) };
-        (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID).then_some(RawHit {
+        (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID).then_some(Hit {
             t: rh.ray.tfar,
             geom: rh.hit.geomID,
             prim: rh.hit.primID,
@@ -517,11 +499,11 @@ mod tests {
     #[test]
     fn embree_errors_reach_the_caller_with_embrees_message() {
         let d = Device::new(None).unwrap();
-        let s = d.new_scene(Quality::Medium, false).unwrap();
+        let s = d.new_scene(EmbreeQuality::Medium, false).unwrap();
         let g = d.new_triangles(
             &[Vec3::ZERO, Vec3::X, Vec3::Y],
             &[[0, 1, 2]],
-            Quality::Medium,
+            EmbreeQuality::Medium,
         );
         let g = g.unwrap();
         d.attach(&s, &g, 3).unwrap();

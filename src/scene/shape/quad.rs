@@ -45,6 +45,12 @@ impl Quad {
         self.normal
     }
 
+    /// The dual basis `(du, dv)`: a point `p` of the quad's plane has
+    /// parameters `u = (p − p0)·du`, `v = (p − p0)·dv`.
+    pub fn dual(&self) -> (Vec3, Vec3) {
+        (self.du, self.dv)
+    }
+
     pub fn area(&self) -> f32 {
         self.area
     }
