@@ -10,5 +10,5 @@ mod names;
 pub mod render;
 pub mod sampling;
 pub mod scene;
-pub mod simd;
+pub(crate) mod simd;
 pub mod study;

@@ -159,4 +159,4 @@ mod imp {
     }
 }
 
-pub use imp::{F4, M4};
+pub use imp::F4;

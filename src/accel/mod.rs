@@ -49,12 +49,12 @@ use std::sync::Arc;
 
 /// Whether a ray can be traced: finite origin and direction, `t_min` not
 /// NaN, `t_min < t_max`. No box or shape test can handle the others, which
-/// hit nothing. Branch-free: `x - x` is 0 for finite `x` and NaN otherwise,
-/// so one comparison covers all seven numbers.
+/// hit nothing. Branch-free: `x * 0` is ±0 for finite `x` and NaN
+/// otherwise, so one comparison covers all seven numbers.
 #[inline(always)]
 pub(crate) fn traceable(ray: &Ray) -> bool {
-    let zeros = (ray.origin - ray.origin) + (ray.dir - ray.dir);
-    ((zeros.element_sum() + (ray.t_min - ray.t_min)) == 0.0) & (ray.t_min < ray.t_max)
+    let zeros = ray.origin * 0.0 + ray.dir * 0.0;
+    ((zeros.element_sum() + ray.t_min * 0.0) == 0.0) & (ray.t_min < ray.t_max)
 }
 
 /// Which backend to build; `Auto` is Embree when compiled in.

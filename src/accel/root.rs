@@ -1,6 +1,6 @@
 //! The shapes `Accel` tests itself, beside the root of either backend's
-//! tree: a scene's infinite planes, and its analytic shapes (quads,
-//! spheres, cuboids) when there are few of them.
+//! tree: a scene's infinite planes, its quads when there are few, and its
+//! few large spheres and cuboids.
 //!
 //! Why here and not in a tree: infinite planes have no finite bounds
 //! (Embree drops user geometry bounds beyond ~1.8e18, and a huge box would
@@ -18,14 +18,24 @@
 //! other shapes are copied (they are small) and tested one by one.
 
 use super::Hit;
-use crate::math::Ray;
+use crate::math::{Aabb, Ray};
 use crate::scene::{Geometry, Shape};
 use crate::simd::F4;
 
-/// Analytic shapes beyond this many go into the backends' trees instead.
-/// Measured on grids of quads (docs/performance.md): the root's linear
-/// test of ⌈n/4⌉ packs beats a tree walk up to about this size.
-pub const ROOT_LIMIT: usize = 16;
+/// Quads go to the root when a scene has at most this many (two packs),
+/// else all of them into the trees. Measured on floors and walls tiled into
+/// n quads (docs/performance.md): the root's linear test beats the native
+/// tree up to 5 quads and is level with it at 9; Embree's tree, which
+/// calls back into Rust per quad, only from 17 on.
+pub const ROOT_QUADS: usize = 8;
+/// Spheres and cuboids, tested one by one, go to the root only when they
+/// are large, at most this many: a big sphere in a Cornell box is entered
+/// by as many rays as its box, a small one by few (measured: five spheres
+/// of radius 0.25 in a 2-unit box cost 19% more at the root than in a tree).
+pub const ROOT_OTHERS: usize = 4;
+/// "Large": a bounding box with at least this fraction of the surface
+/// area of the scene's bounds.
+pub const LARGE_AREA: f32 = 0.1;
 
 /// Four quads as structure of arrays: `p0[c][k]` is coordinate `c` of
 /// quad `k`'s corner; `n` its unit normal, `du`/`dv` its dual basis
@@ -102,14 +112,26 @@ impl RootShapes {
     /// The root shapes of `shapes`, and per shape whether it is one of them
     /// (the backends' trees take the others).
     pub fn of(shapes: &[Shape]) -> (Self, Vec<bool>) {
-        let analytic = shapes
+        let bounds = |g: &Geometry| match g {
+            Geometry::Mesh(m) => m.bounds(),
+            g => g.primitive_bounds(0).unwrap_or(Aabb::EMPTY),
+        };
+        let scene_area = shapes
             .iter()
-            .filter(|s| !matches!(s.geometry, Geometry::Mesh(_) | Geometry::Plane(_)))
-            .count();
+            .fold(Aabb::EMPTY, |a, s| a.union(bounds(&s.geometry)))
+            .half_area();
+        let large = |g: &Geometry| bounds(g).half_area() >= LARGE_AREA * scene_area;
+        let count =
+            |f: &dyn Fn(&Geometry) -> bool| shapes.iter().filter(|s| f(&s.geometry)).count();
+        let is_quad = |g: &Geometry| matches!(g, Geometry::Quad(_));
+        let is_other = |g: &Geometry| matches!(g, Geometry::Sphere(_) | Geometry::Cuboid(_));
+        let quads_at_root = count(&is_quad) <= ROOT_QUADS;
+        let others_at_root = count(&|g| is_other(g) && large(g)) <= ROOT_OTHERS;
         let at_root = |g: &Geometry| match g {
             Geometry::Plane(_) => true,
             Geometry::Mesh(_) => false,
-            _ => analytic <= ROOT_LIMIT,
+            Geometry::Quad(_) => quads_at_root,
+            g => others_at_root && large(g),
         };
         let mut root = RootShapes::default();
         let mut quads = 0;
@@ -199,5 +221,94 @@ impl RootShapes {
         self.others
             .iter()
             .any(|(_, g)| g.intersect(0, ray).is_some())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+    use crate::sampling::{uniform_sphere, Rng};
+    use crate::scene::shape::{Quad, Sphere};
+
+    fn quad(p0: Vec3, e1: Vec3, e2: Vec3) -> Shape {
+        Shape::new(Geometry::Quad(Quad::new(p0, e1, e2).unwrap()), 0)
+    }
+
+    fn sphere(center: Vec3, radius: f32) -> Shape {
+        Shape::new(Geometry::Sphere(Sphere { center, radius }), 0)
+    }
+
+    /// A closed box of six quads with two large spheres inside.
+    fn cornell() -> Vec<Shape> {
+        let (x, y, z) = (2.0 * Vec3::X, 2.0 * Vec3::Y, 2.0 * Vec3::Z);
+        let o = Vec3::new(-1.0, 0.0, -1.0);
+        let far = o + x + y + z;
+        vec![
+            quad(o, z, x),
+            quad(o, x, y),
+            quad(o, y, z),
+            quad(far, -y, -x),
+            quad(far, -z, -y),
+            quad(far, -x, -z),
+            sphere(Vec3::new(-0.4, 0.4, -0.3), 0.4),
+            sphere(Vec3::new(0.4, 0.4, 0.3), 0.4),
+        ]
+    }
+
+    /// The closest hit and any hit, shape by shape with the scalar routines.
+    fn brute(shapes: &[Shape], ray: &Ray) -> Option<(f32, u32)> {
+        let mut r = *ray;
+        let mut best = None;
+        for (geom, s) in shapes.iter().enumerate() {
+            if let Some(h) = s.geometry.intersect(0, &r) {
+                r.t_max = h.t;
+                best = Some((h.t, geom as u32));
+            }
+        }
+        best
+    }
+
+    #[test]
+    fn root_hits_are_the_scalar_routines_hits() {
+        let shapes = cornell();
+        let (root, in_root) = RootShapes::of(&shapes);
+        assert!(in_root.iter().all(|&r| r), "{in_root:?}");
+        let mut rng = Rng::new(7, 7);
+        for i in 0..20_000 {
+            let o = Vec3::new(0.0, 1.0, 0.0) + 0.9 * uniform_sphere(rng.next_2d());
+            let mut ray = Ray::new(o, uniform_sphere(rng.next_2d()));
+            if i % 2 == 1 {
+                ray.t_max = 2.0 * rng.next_f32();
+            }
+            let expected = brute(&shapes, &ray);
+            let got = root.closest(&ray).map(|h| (h.t, h.geom));
+            assert_eq!(got, expected, "{ray:?}");
+            assert_eq!(root.any_hit(&ray), expected.is_some(), "{ray:?}");
+        }
+    }
+
+    #[test]
+    fn many_quads_and_small_spheres_go_into_the_trees() {
+        let mut shapes = cornell();
+        let (_, in_root) = RootShapes::of(&shapes);
+        assert_eq!(in_root.iter().filter(|&&r| r).count(), 8);
+        // Three more quads: nine in all, beyond two packs.
+        for k in 0..3 {
+            let p = Vec3::new(-0.9 + 0.5 * k as f32, 0.01, -0.9);
+            shapes.push(quad(p, 0.1 * Vec3::Z, 0.1 * Vec3::X));
+        }
+        shapes.push(sphere(Vec3::new(0.0, 1.5, 0.0), 0.05));
+        let (_, in_root) = RootShapes::of(&shapes);
+        let kinds: Vec<_> = shapes
+            .iter()
+            .map(|s| s.geometry.name())
+            .zip(in_root)
+            .collect();
+        for (name, at_root) in &kinds[..6] {
+            assert_eq!((*name, *at_root), ("quad", false));
+        }
+        assert_eq!(kinds[6..8], [("sphere", true), ("sphere", true)]);
+        assert_eq!(kinds[11], ("sphere", false), "a small sphere");
     }
 }

@@ -43,6 +43,11 @@ impl Mesh {
         ]
     }
 
+    /// Bounds of all the mesh's vertices.
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&self.positions)
+    }
+
     pub fn triangle_bounds(&self, prim: u32) -> Aabb {
         Aabb::from_points(&self.vertices(prim))
     }
