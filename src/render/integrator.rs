@@ -289,14 +289,13 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 let d = w.length();
                 let wi = w / d;
                 let cos = ns.dot(wi);
-                let emission = scene.material_of(ls.geom).emission;
                 if cos > 0.0 && ls.point.n.dot(-wi) > 0.0 && ls.pdf > 0.0 {
                     let ray =
                         spawn_ray_to(sp.p, sp.p_err, sp.n, ls.point.p, ls.point.p_err, ls.point.n);
                     counts.shadow += 1;
                     if !self.backend.occluded(&ray) {
                         let weight = power_heuristic(ls.pdf, cos * FRAC_1_PI);
-                        sum += f * emission * (cos * weight / ls.pdf);
+                        sum += f * ls.emission * (cos * weight / ls.pdf);
                     }
                 }
             }
