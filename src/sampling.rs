@@ -99,8 +99,8 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
 pub fn uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
-    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
-    Vec3::new(r * cos_phi, r * sin_phi, z)
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
 pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
