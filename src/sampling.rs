@@ -1,8 +1,8 @@
 //! Deterministic random numbers and the warps from the unit square to the
 //! directions and points the integrator samples.
 
-use crate::math::{Vec2, Vec3};
-use std::f32::consts::{FRAC_PI_2, FRAC_PI_4, PI};
+use crate::math::{sin_cos_octant, sin_cos_turns, Vec2, Vec3};
+use std::f32::consts::{FRAC_PI_4, PI};
 
 /// PCG32 (O'Neill 2014): small state, good statistics, cheap.
 #[derive(Clone, Debug)]
@@ -70,12 +70,15 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, FRAC_PI_4 * (o.y / o.x))
+    // θ = π/4 · y/x, or π/2 − π/4 · x/y, whose cosine and sine are the
+    // sine and cosine of π/4 · x/y: both within one octant.
+    if o.x.abs() > o.y.abs() {
+        let (sin, cos) = sin_cos_octant(FRAC_PI_4 * (o.y / o.x));
+        o.x * Vec2::new(cos, sin)
     } else {
-        (o.y, FRAC_PI_2 - FRAC_PI_4 * (o.x / o.y))
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+        let (sin, cos) = sin_cos_octant(FRAC_PI_4 * (o.x / o.y));
+        o.y * Vec2::new(sin, cos)
+    }
 }
 
 /// Cosine-weighted direction around local +z; pdf = cos θ / π.
@@ -108,8 +111,8 @@ pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
 pub fn uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
     let cos_t = (1.0 - u.x) + u.x * cos_max;
     let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(sin_t * phi.cos(), sin_t * phi.sin(), cos_t)
+    let (sin_phi, cos_phi) = sin_cos_turns(u.y);
+    Vec3::new(sin_t * cos_phi, sin_t * sin_phi, cos_t)
 }
 
 #[inline]

@@ -15,12 +15,12 @@
 //! counted twice. Emitters that are not sampled, and the environment, are
 //! found only by hitting them and count fully.
 
-use crate::accel::Backend;
+use crate::accel::{Backend, Hit};
 use crate::math::{
     fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
 };
 use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
-use crate::scene::{Scene, SurfacePoint};
+use crate::scene::{Lobes, Material, Scene, SurfacePoint};
 use std::f32::consts::FRAC_1_PI;
 
 /// Settings of one integration.
@@ -55,6 +55,14 @@ enum Lobe {
     Diffuse,
     Mirror,
     Refraction,
+}
+
+/// The lobe chosen at a vertex, the probability of that choice and the
+/// lobe's coefficient there (kd, ks or kt).
+struct Scatter {
+    lobe: Lobe,
+    p: f32,
+    k: Rgb,
 }
 
 pub struct Integrator<'a, B: Backend + ?Sized> {
@@ -94,10 +102,11 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             let sp = scene.surface(&ray, &hit);
             let shape = &scene.shapes[hit.geom as usize];
             let material = &scene.materials[shape.material as usize];
+            let shading = scene.shading(shape.material);
             let wo = -ray.dir;
             let cos_o = sp.n.dot(wo);
 
-            if material.is_emissive() && cos_o > 0.0 {
+            if shading.emissive && cos_o > 0.0 {
                 let weight = match prev {
                     Some((from, pdf_bsdf)) if shape.nee => {
                         let pdf_light =
@@ -113,69 +122,34 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             if depth == max_depth {
                 break;
             }
-
-            // Coefficients of the three lobes at this point.
-            let kd = if material.texture.is_some() {
-                scene.albedo(&hit, &sp)
-            } else {
-                material.kd
-            };
-            let entering = cos_o > 0.0;
-            let (ks, kt) = if material.dielectric {
-                let eta = if entering {
-                    material.ior
-                } else {
-                    1.0 / material.ior
-                };
-                let f = fresnel_dielectric(cos_o.abs(), eta);
-                (material.kt * f, material.kt * (1.0 - f))
-            } else {
-                (material.ks, material.kt)
-            };
-            let (wd, ws, wt) = (kd.max_element(), ks.max_element(), kt.max_element());
-            let sum = wd + ws + wt;
-            if sum.is_nan() || sum <= 0.0 {
-                break;
-            }
-            // Probabilities: normalised when they exceed one or when Russian
-            // roulette is off; otherwise the rest is absorption.
-            let scale = if sum > 1.0 || !self.settings.russian_roulette {
-                1.0 / sum
-            } else {
-                1.0
-            };
-            let xi = rng.next_f32();
-            let (lobe, p) = if xi < wd * scale {
-                (Lobe::Diffuse, wd * scale)
-            } else if xi < (wd + ws) * scale {
-                (Lobe::Mirror, ws * scale)
-            } else if xi < sum * scale {
-                (Lobe::Refraction, wt * scale)
-            } else {
+            let Some(Scatter { lobe, p, k }) =
+                self.choose_lobe(shading.lobes, material, &hit, &sp, cos_o, rng)
+            else {
                 break;
             };
 
             // Shading normal on the side of the outgoing direction: every
             // reflecting surface is two-sided.
+            let entering = cos_o > 0.0;
             let ns = if entering { sp.n } else { -sp.n };
             let wi = match lobe {
                 Lobe::Diffuse => {
                     beta /= p;
-                    radiance += beta * self.direct(&sp, ns, kd, depth, rng, counts);
+                    radiance += beta * self.direct(&sp, ns, k, depth, rng, counts);
                     let frame = Frame::from_normal(ns);
                     let local = cosine_hemisphere(rng.next_2d());
                     let wi = frame.to_world(local);
-                    beta *= kd;
+                    beta *= k;
                     prev = Some((sp.p, local.z * FRAC_1_PI));
                     wi
                 }
                 Lobe::Mirror => {
-                    beta *= ks / p;
+                    beta *= k / p;
                     prev = None;
                     reflect(wo, ns)
                 }
                 Lobe::Refraction => {
-                    beta *= kt / p;
+                    beta *= k / p;
                     prev = None;
                     let eta = if entering {
                         material.ior
@@ -194,6 +168,86 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             depth += 1;
         }
         radiance
+    }
+
+    /// Chooses the lobe followed at a vertex; `None` when the path ends
+    /// there (absorption, or nothing left to scatter). A diffuse-only
+    /// material draws the same random number as a mixed one, so the random
+    /// stream does not depend on which of the two evaluated the choice.
+    #[inline]
+    fn choose_lobe(
+        &self,
+        lobes: Lobes,
+        material: &Material,
+        hit: &Hit,
+        sp: &SurfacePoint,
+        cos_o: f32,
+        rng: &mut Rng,
+    ) -> Option<Scatter> {
+        let Lobes::Diffuse { weight } = lobes else {
+            return self.choose_mixed_lobe(material, hit, sp, cos_o, rng);
+        };
+        let p = weight * self.lobe_scale(weight)?;
+        (rng.next_f32() < p).then_some(Scatter {
+            lobe: Lobe::Diffuse,
+            p,
+            k: material.kd,
+        })
+    }
+
+    fn choose_mixed_lobe(
+        &self,
+        material: &Material,
+        hit: &Hit,
+        sp: &SurfacePoint,
+        cos_o: f32,
+        rng: &mut Rng,
+    ) -> Option<Scatter> {
+        let kd = if material.texture.is_some() {
+            self.scene.albedo(hit, sp)
+        } else {
+            material.kd
+        };
+        let (ks, kt) = if material.dielectric {
+            let eta = if cos_o > 0.0 {
+                material.ior
+            } else {
+                1.0 / material.ior
+            };
+            let f = fresnel_dielectric(cos_o.abs(), eta);
+            (material.kt * f, material.kt * (1.0 - f))
+        } else {
+            (material.ks, material.kt)
+        };
+        let (wd, ws, wt) = (kd.max_element(), ks.max_element(), kt.max_element());
+        let sum = wd + ws + wt;
+        let scale = self.lobe_scale(sum)?;
+        let xi = rng.next_f32();
+        let (lobe, p, k) = if xi < wd * scale {
+            (Lobe::Diffuse, wd * scale, kd)
+        } else if xi < (wd + ws) * scale {
+            (Lobe::Mirror, ws * scale, ks)
+        } else if xi < sum * scale {
+            (Lobe::Refraction, wt * scale, kt)
+        } else {
+            return None;
+        };
+        Some(Scatter { lobe, p, k })
+    }
+
+    /// Factor from lobe weights summing to `sum` to probabilities:
+    /// normalised when they exceed one or when Russian roulette is off,
+    /// otherwise the rest is absorption. `None` when nothing scatters.
+    #[inline]
+    fn lobe_scale(&self, sum: f32) -> Option<f32> {
+        if sum.is_nan() || sum <= 0.0 {
+            return None;
+        }
+        Some(if sum > 1.0 || !self.settings.russian_roulette {
+            1.0 / sum
+        } else {
+            1.0
+        })
     }
 
     /// Light reaching `sp` from point lights and sampled emitters, times the
@@ -235,14 +289,13 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 let d = w.length();
                 let wi = w / d;
                 let cos = ns.dot(wi);
-                let emission = scene.material_of(ls.geom).emission;
                 if cos > 0.0 && ls.point.n.dot(-wi) > 0.0 && ls.pdf > 0.0 {
                     let ray =
                         spawn_ray_to(sp.p, sp.p_err, sp.n, ls.point.p, ls.point.p_err, ls.point.n);
                     counts.shadow += 1;
                     if !self.backend.occluded(&ray) {
                         let weight = power_heuristic(ls.pdf, cos * FRAC_1_PI);
-                        sum += f * emission * (cos * weight / ls.pdf);
+                        sum += f * ls.emission * (cos * weight / ls.pdf);
                     }
                 }
             }

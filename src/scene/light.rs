@@ -2,7 +2,7 @@
 //! lights (emissive shapes; sampled too when they ask for it with
 //! `nee = true`) and a constant environment (found by escaping rays).
 
-use super::shape::{Geometry, SurfacePoint};
+use super::shape::{Geometry, Quad, SurfacePoint};
 use super::Shape;
 use crate::math::{luminance, Rgb, Vec2, Vec3};
 use crate::sampling::Discrete;
@@ -22,16 +22,30 @@ pub struct LightSampler {
     pub shapes: Vec<u32>,
     /// Position of each shape in `shapes`, indexed by shape id.
     slot: Vec<Option<u32>>,
-    choice: Option<Discrete>,
+    choice: Option<Choice>,
     /// Per emitter: triangle distribution for meshes.
     triangles: Vec<Option<Discrete>>,
+    /// Per emitter: its emitted radiance.
+    emission: Vec<Rgb>,
 }
 
-/// A point sampled on an emitter, with its solid-angle pdf at the
-/// receiving point (selection probability included).
+/// How an emitter is picked. One emitter, the common case, is picked with
+/// probability exactly one, which is what the distribution over it would
+/// return too: the fast paths do not change a single sample.
+#[derive(Clone, Debug)]
+enum Choice {
+    /// The one emitter is a quad (a ceiling light), kept here so that
+    /// sampling it reads neither a distribution nor the shape list.
+    OneQuad(Quad),
+    One,
+    ByPower(Discrete),
+}
+
+/// A point sampled on an emitter, its emitted radiance, and its solid-angle
+/// pdf at the receiving point (selection probability included).
 pub struct LightSample {
     pub point: SurfacePoint,
-    pub geom: u32,
+    pub emission: Rgb,
     pub pdf: f32,
 }
 
@@ -65,9 +79,17 @@ impl LightSampler {
                 Geometry::Mesh(m) => m.area_distribution(),
                 _ => None,
             });
+            sampler.emission.push(emission);
             weights.push(luminance(emission).max(1e-6) * area);
         }
-        sampler.choice = Discrete::new(weights);
+        let distribution = Discrete::new(weights);
+        sampler.choice = match sampler.shapes[..] {
+            [geom] if distribution.is_some() => match &shapes[geom as usize].geometry {
+                Geometry::Quad(q) => Some(Choice::OneQuad(q.clone())),
+                _ => Some(Choice::One),
+            },
+            _ => distribution.map(Choice::ByPower),
+        };
         sampler
     }
 
@@ -75,11 +97,21 @@ impl LightSampler {
         self.choice.is_none()
     }
 
+    /// Picks an emitter for `u_pick` in [0,1): its slot and probability.
+    #[inline]
+    fn pick(&self, u_pick: f32) -> Option<(usize, f32)> {
+        match self.choice.as_ref()? {
+            Choice::OneQuad(_) | Choice::One => Some((0, 1.0)),
+            Choice::ByPower(d) => Some(d.sample(u_pick)),
+        }
+    }
+
     pub fn is_sampled(&self, geom: u32) -> bool {
         self.slot.get(geom as usize).is_some_and(|s| s.is_some())
     }
 
     /// Samples an emitter point as seen from `from`.
+    #[inline]
     pub fn sample(
         &self,
         shapes: &[Shape],
@@ -87,16 +119,21 @@ impl LightSampler {
         u_pick: f32,
         u: Vec2,
     ) -> Option<LightSample> {
-        let choice = self.choice.as_ref()?;
-        let (slot, p_pick) = choice.sample(u_pick);
-        let geom = self.shapes[slot];
-        let shape = &shapes[geom as usize];
+        if let Some(Choice::OneQuad(q)) = &self.choice {
+            let point = q.point_at(u);
+            return Some(LightSample {
+                pdf: quad_pdf(q, from, &point)?,
+                point,
+                emission: self.emission[0],
+            });
+        }
+        let (slot, p_pick) = self.pick(u_pick)?;
+        let shape = &shapes[self.shapes[slot] as usize];
         let (point, pdf) = match &shape.geometry {
             Geometry::Sphere(s) => s.sample(from, u)?,
             Geometry::Quad(q) => {
                 let sp = q.point_at(u);
-                let pdf = area_to_solid_angle(from, &sp, 1.0 / q.area())?;
-                (sp, pdf)
+                (sp, quad_pdf(q, from, &sp)?)
             }
             Geometry::Cuboid(c) => {
                 let sp = c.sample_area(u);
@@ -114,7 +151,7 @@ impl LightSampler {
         };
         Some(LightSample {
             point,
-            geom,
+            emission: self.emission[slot],
             pdf: pdf * p_pick,
         })
     }
@@ -132,12 +169,14 @@ impl LightSampler {
         let Some(Some(slot)) = self.slot.get(geom as usize) else {
             return 0.0;
         };
-        let choice = self.choice.as_ref().expect("a slot implies a distribution");
-        let p_pick = choice.pmf(*slot as usize);
+        let p_pick = match self.choice.as_ref().expect("a slot implies a choice") {
+            Choice::OneQuad(_) | Choice::One => 1.0,
+            Choice::ByPower(d) => d.pmf(*slot as usize),
+        };
         let shape = &shapes[geom as usize];
         let pdf = match &shape.geometry {
             Geometry::Sphere(s) => s.pdf(from, hit.p, hit.n),
-            Geometry::Quad(q) => area_to_solid_angle(from, hit, 1.0 / q.area()).unwrap_or(0.0),
+            Geometry::Quad(q) => quad_pdf(q, from, hit).unwrap_or(0.0),
             Geometry::Cuboid(c) => area_to_solid_angle(from, hit, 1.0 / c.area()).unwrap_or(0.0),
             Geometry::Mesh(m) => {
                 let tris = self.triangles[*slot as usize].as_ref();
@@ -150,7 +189,14 @@ impl LightSampler {
     }
 }
 
+/// Solid-angle density at `from` of the point `sp` sampled uniformly on `q`.
+#[inline]
+fn quad_pdf(q: &Quad, from: Vec3, sp: &SurfacePoint) -> Option<f32> {
+    area_to_solid_angle(from, sp, 1.0 / q.area())
+}
+
 /// Converts an area density at `sp` to a solid-angle density at `from`.
+#[inline]
 fn area_to_solid_angle(from: Vec3, sp: &SurfacePoint, pdf_area: f32) -> Option<f32> {
     let w = sp.p - from;
     let d2 = w.length_squared();
@@ -162,4 +208,65 @@ fn area_to_solid_angle(from: Vec3, sp: &SurfacePoint, pdf_area: f32) -> Option<f
         return None;
     }
     Some(pdf_area * d2 / cos)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+    use crate::scene::shape::Sphere;
+
+    fn emitter(geometry: Geometry) -> Shape {
+        let mut shape = Shape::new(geometry, 0);
+        shape.nee = true;
+        shape
+    }
+
+    fn quad() -> Shape {
+        let q = Quad::new(Vec3::new(-1.0, 2.0, -1.0), 2.0 * Vec3::X, 2.0 * Vec3::Z);
+        emitter(Geometry::Quad(q.expect("a quad with area")))
+    }
+
+    fn sphere() -> Shape {
+        emitter(Geometry::Sphere(Sphere {
+            center: Vec3::new(2.0, 1.0, 0.0),
+            radius: 0.5,
+        }))
+    }
+
+    /// Every sample's pdf is the one `pdf` reports for the point, whichever
+    /// path (one quad, one shape, several) the sampler took.
+    #[test]
+    fn sampled_pdfs_match_the_reported_ones() {
+        for shapes in [vec![quad()], vec![sphere()], vec![quad(), sphere()]] {
+            let lights = LightSampler::new(&shapes, |_| Rgb::ONE);
+            let from = Vec3::new(0.3, 0.0, 0.2);
+            let mut rng = Rng::new(1, 2);
+            for _ in 0..1000 {
+                let (u_pick, u) = (rng.next_f32(), rng.next_2d());
+                let Some(ls) = lights.sample(&shapes, from, u_pick, u) else {
+                    continue;
+                };
+                // The quad, when there is one, is shape 0 at y = 2.
+                let geom = if ls.point.p.y > 1.75 {
+                    0
+                } else {
+                    shapes.len() - 1
+                };
+                let geom = geom as u32;
+                let pdf = lights.pdf(&shapes, geom, 0, from, &ls.point);
+                assert!((ls.pdf - pdf).abs() <= 1e-4 * pdf, "{} vs {pdf}", ls.pdf);
+                assert_eq!(ls.emission, Rgb::ONE);
+            }
+        }
+    }
+
+    #[test]
+    fn a_single_emitter_is_picked_with_probability_one() {
+        for shapes in [vec![quad()], vec![sphere()]] {
+            let lights = LightSampler::new(&shapes, |_| Rgb::splat(3.0));
+            assert_eq!(lights.pick(0.999), Some((0, 1.0)));
+        }
+        assert!(LightSampler::new(&[quad()], |_| Rgb::ZERO).is_empty());
+    }
 }

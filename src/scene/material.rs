@@ -51,3 +51,80 @@ impl Material {
             || (self.kd + self.ks + self.kt).max_element() > 0.0
     }
 }
+
+/// What a vertex on a material has to evaluate, decided once when the scene
+/// is assembled (`Scene::new`) so that a vertex pays only for the lobes its
+/// material has.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shading {
+    pub emissive: bool,
+    pub lobes: Lobes,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Lobes {
+    /// Untextured Lambertian: the only lobe's weight, `max(kd)`, is a
+    /// constant of the material.
+    Diffuse { weight: f32 },
+    /// A texture, a mirror, refraction or a Fresnel dielectric: the weights
+    /// of the three lobes are evaluated at each vertex.
+    Mixed,
+}
+
+impl Material {
+    pub fn shading(&self) -> Shading {
+        let diffuse_only = self.texture.is_none()
+            && !self.dielectric
+            && self.ks == Rgb::ZERO
+            && self.kt == Rgb::ZERO;
+        Shading {
+            emissive: self.is_emissive(),
+            lobes: if diffuse_only {
+                Lobes::Diffuse {
+                    weight: self.kd.max_element(),
+                }
+            } else {
+                Lobes::Mixed
+            },
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn only_untextured_lambertian_materials_shade_as_diffuse() {
+        let grey = Material::default();
+        assert_eq!(grey.shading().lobes, Lobes::Diffuse { weight: 0.5 });
+        let mirror = Material {
+            ks: Rgb::splat(0.2),
+            ..Material::default()
+        };
+        let glass = Material {
+            kd: Rgb::ZERO,
+            dielectric: true,
+            ..Material::default()
+        };
+        let textured = Material {
+            texture: Some(0),
+            ..Material::default()
+        };
+        for m in [mirror, glass, textured] {
+            assert_eq!(m.shading().lobes, Lobes::Mixed, "{m:?}");
+        }
+        let light = Material {
+            kd: Rgb::ZERO,
+            emission: Rgb::ONE,
+            ..Material::default()
+        };
+        assert_eq!(
+            light.shading(),
+            Shading {
+                emissive: true,
+                lobes: Lobes::Diffuse { weight: 0.0 }
+            }
+        );
+    }
+}

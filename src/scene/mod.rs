@@ -12,7 +12,7 @@ pub mod texture;
 pub use camera::Camera;
 pub use light::{LightSampler, PointLight};
 pub use load::{load, load_bytes, load_str, SceneError};
-pub use material::Material;
+pub use material::{Lobes, Material, Shading};
 pub use shape::{Geometry, PrimHit, SurfacePoint};
 pub use texture::{Texture, UvTransform};
 
@@ -73,6 +73,8 @@ pub struct Scene {
     pub environment: Option<Rgb>,
     pub lights: LightSampler,
     pub render: RenderSettings,
+    /// Per material, what its vertices evaluate; derived from `materials`.
+    shading: Vec<Shading>,
 }
 
 /// Samples the emitters of the shapes that ask for NEE.
@@ -92,6 +94,7 @@ impl Scene {
         render: RenderSettings,
     ) -> Self {
         let lights = light_sampler(&shapes, &materials);
+        let shading = materials.iter().map(Material::shading).collect();
         Self {
             camera,
             materials,
@@ -101,6 +104,7 @@ impl Scene {
             environment,
             lights,
             render,
+            shading,
         }
     }
 
@@ -137,6 +141,11 @@ impl Scene {
         self.shapes[hit.geom as usize]
             .geometry
             .surface(hit.prim, ray, &prim_hit(hit))
+    }
+
+    #[inline]
+    pub fn shading(&self, material: u32) -> Shading {
+        self.shading[material as usize]
     }
 
     #[inline]
