@@ -3,6 +3,7 @@
 //! feeding one Monte Carlo integrator.
 
 pub mod accel;
+pub mod geometry;
 pub mod image;
 mod location;
 pub mod math;

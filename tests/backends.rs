@@ -3,11 +3,13 @@
 
 mod common;
 
-use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Hit};
+use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
+use luz::geometry::Geometry;
+use luz::geometry::PreliminaryHit;
+use luz::geometry::{Cuboid, Mesh, Plane, Quad, Sphere};
 use luz::math::{Ray, Vec3};
 use luz::sampling::{uniform_sphere, Rng};
-use luz::scene::shape::{Cuboid, Mesh, Plane, Quad, Sphere};
-use luz::scene::{Geometry, Material, RenderSettings, Scene, Shape};
+use luz::scene::{Material, RenderSettings, Scene, Shape};
 use std::sync::Arc;
 
 fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
@@ -60,14 +62,14 @@ fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
     Arc::new(Scene::of_geometry(shapes))
 }
 
-fn brute_force(scene: &Scene, ray: &Ray) -> Option<Hit> {
+fn brute_force(scene: &Scene, ray: &Ray) -> Option<PreliminaryHit> {
     let mut r = *ray;
     let mut best = None;
     for (geom, s) in scene.shapes.iter().enumerate() {
         for prim in 0..s.geometry.primitive_count() as u32 {
             if let Some(h) = s.geometry.intersect(prim, &r) {
                 r.t_max = h.t;
-                best = Some(Hit {
+                best = Some(PreliminaryHit {
                     t: h.t,
                     geom: geom as u32,
                     prim,

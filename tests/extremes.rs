@@ -12,12 +12,13 @@ mod common;
 use common::embree_compiled;
 
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
+use luz::geometry::Geometry;
+use luz::geometry::{Mesh, Quad, Sphere};
 use luz::image::io::{read, write, WriteOptions};
 use luz::math::{reflect, spawn_ray, Ray, Rgb, Vec3};
 use luz::render::{render_with, Film, PixelSum, RenderOptions};
 use luz::sampling::{uniform_sphere, Rng};
-use luz::scene::shape::{Mesh, Quad, Sphere};
-use luz::scene::{load_str, Geometry, Scene};
+use luz::scene::{load_str, Scene};
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;

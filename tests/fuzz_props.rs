@@ -4,10 +4,11 @@
 //! read back equal. Case counts are bounded so the file runs in seconds;
 //! `fuzz/` holds the open-ended cargo-fuzz targets over the same entry points.
 
+use luz::geometry::Mesh;
 use luz::image::io::{parse_ppm, srgb_to_linear};
 use luz::math::Vec3;
+use luz::scene::load_bytes;
 use luz::scene::mesh_io::parse_mesh;
-use luz::scene::{load_bytes, shape::Mesh};
 use proptest::prelude::*;
 use std::path::Path;
 

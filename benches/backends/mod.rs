@@ -20,9 +20,10 @@
 use criterion::measurement::WallTime;
 use criterion::{black_box, BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions, EmbreeQuality};
+use luz::geometry::Geometry;
 use luz::math::{spawn_ray, spawn_ray_to, Aabb, Frame, Mat4, Ray, Vec2, Vec3};
 use luz::sampling::{cosine_hemisphere, Rng};
-use luz::scene::{Geometry, Scene};
+use luz::scene::Scene;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

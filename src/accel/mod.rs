@@ -1,26 +1,15 @@
 //! Ray-intersection backends. A backend answers only *where* a ray hits
-//! (`Hit`); the scene turns that into a surface point with code shared by all
-//! backends, which is what lets them agree pixel by pixel.
+//! (`geometry::PreliminaryHit`); shared geometry code turns that into a
+//! surface point for both backends, which is what lets them agree pixel by
+//! pixel.
 
+use crate::geometry::PreliminaryHit;
 use crate::math::Ray;
-
-/// Preliminary hit: ray parameter, the scene's shape id (`geom`), the
-/// primitive within it (`prim`: triangle index, 0 otherwise) and two
-/// shape-specific coordinates (barycentrics of vertices 1 and 2 for
-/// triangles, quad parameters for quads).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub t: f32,
-    pub geom: u32,
-    pub prim: u32,
-    pub u: f32,
-    pub v: f32,
-}
 
 pub trait Backend: Send + Sync {
     fn name(&self) -> &'static str;
     /// Closest hit with `t` in `(ray.t_min, ray.t_max)`, if any.
-    fn intersect(&self, ray: &Ray) -> Option<Hit>;
+    fn intersect(&self, ray: &Ray) -> Option<PreliminaryHit>;
     /// Whether anything is hit in `(ray.t_min, ray.t_max)`: shadow rays.
     fn occluded(&self, ray: &Ray) -> bool;
 }
@@ -31,7 +20,7 @@ pub trait Backend: Send + Sync {
 pub trait Tree: Send + Sync {
     fn name(&self) -> &'static str;
     /// Closest hit of the tree's shapes in `(ray.t_min, ray.t_max)`.
-    fn closest(&self, ray: &Ray) -> Option<Hit>;
+    fn closest(&self, ray: &Ray) -> Option<PreliminaryHit>;
     /// Whether any of the tree's shapes is hit in `(ray.t_min, ray.t_max)`.
     fn any_hit(&self, ray: &Ray) -> bool;
 }
@@ -197,7 +186,7 @@ impl<T: Tree> Backend for Layered<'_, T> {
     }
 
     #[inline]
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+    fn intersect(&self, ray: &Ray) -> Option<PreliminaryHit> {
         if !traceable(ray) {
             return None;
         }
@@ -226,7 +215,7 @@ impl Backend for Accel {
         }
     }
 
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+    fn intersect(&self, ray: &Ray) -> Option<PreliminaryHit> {
         match &self.tree {
             AccelTree::Native(b) => self.over(b).intersect(ray),
             #[cfg(luz_embree)]

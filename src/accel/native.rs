@@ -21,10 +21,12 @@
 //! so it needs the scene's shapes only while it is built.
 
 use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
-use super::{Hit, Tree};
+use super::Tree;
+use crate::geometry::Geometry;
+use crate::geometry::PreliminaryHit;
+use crate::geometry::{exact_zeros, has_zero_area, ShearedRay};
 use crate::math::{Aabb, Ray, Vec3};
-use crate::scene::shape::{exact_zeros, has_zero_area, ShearedRay};
-use crate::scene::{Geometry, Shape};
+use crate::scene::Shape;
 use crate::simd::F4;
 
 /// Four triangles: `p[v][c][k]` is coordinate `c` of vertex `v` of
@@ -257,7 +259,7 @@ impl NativeBackend {
 
     /// The closest triangle hit below `ray.t_max`.
     #[inline(always)]
-    fn closest_triangle(&self, tr: &TravRay, ray: &Ray) -> Option<Hit> {
+    fn closest_triangle(&self, tr: &TravRay, ray: &Ray) -> Option<PreliminaryHit> {
         // The ray is sheared for the triangle test only once it reaches a
         // leaf: many rays never do.
         let mut sheared = None;
@@ -283,7 +285,7 @@ impl NativeBackend {
                     }
                     best
                 })?;
-        Some(Hit {
+        Some(PreliminaryHit {
             t,
             geom: pack.geom[k],
             prim: pack.prim[k],
@@ -294,7 +296,7 @@ impl NativeBackend {
 
     /// The closest hit of the analytic tree below `ray.t_max`.
     #[inline(always)]
-    fn closest_analytic(&self, tr: &TravRay, ray: &Ray) -> Option<Hit> {
+    fn closest_analytic(&self, tr: &TravRay, ray: &Ray) -> Option<PreliminaryHit> {
         let (t, (geom, u, v)) =
             self.analytic_bvh
                 .intersect_leaves_prepared(tr, ray, |first, count, r| {
@@ -308,7 +310,7 @@ impl NativeBackend {
                     }
                     best
                 })?;
-        Some(Hit {
+        Some(PreliminaryHit {
             t,
             geom,
             prim: 0,
@@ -324,7 +326,7 @@ impl Tree for NativeBackend {
     }
 
     #[inline]
-    fn closest(&self, ray: &Ray) -> Option<Hit> {
+    fn closest(&self, ray: &Ray) -> Option<PreliminaryHit> {
         let tr = TravRay::new(ray);
         // Triangles first: a hit on the mesh culls the shapes behind it.
         let tri = self.closest_triangle(&tr, ray);

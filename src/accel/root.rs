@@ -17,9 +17,10 @@
 //! `Quad::intersect`, so a hit is the one the scalar routine finds. The
 //! other shapes are copied (they are small) and tested one by one.
 
-use super::Hit;
+use crate::geometry::Geometry;
+use crate::geometry::PreliminaryHit;
 use crate::math::{Aabb, Ray};
-use crate::scene::{Geometry, Shape};
+use crate::scene::Shape;
 use crate::simd::F4;
 
 /// Quads go to the root when a scene has at most this many (two packs),
@@ -167,8 +168,8 @@ impl RootShapes {
     /// The closest root hit in `(ray.t_min, ray.t_max)`; of hits at the
     /// same distance, the first found (quads first, then in scene order).
     #[inline]
-    pub fn closest(&self, ray: &Ray) -> Option<Hit> {
-        let mut best: Option<Hit> = None;
+    pub fn closest(&self, ray: &Ray) -> Option<PreliminaryHit> {
+        let mut best: Option<PreliminaryHit> = None;
         let mut t_max = ray.t_max;
         if !self.quads.is_empty() {
             let r = SplatRay::new(ray);
@@ -181,7 +182,7 @@ impl RootShapes {
                 for k in 0..4 {
                     if mask & (1 << k) != 0 && t[k] < t_max {
                         t_max = t[k];
-                        best = Some(Hit {
+                        best = Some(PreliminaryHit {
                             t: t[k],
                             geom: pack.geom[k],
                             prim: 0,
@@ -197,7 +198,7 @@ impl RootShapes {
             r.t_max = t_max;
             if let Some(h) = g.intersect(0, &r) {
                 t_max = h.t;
-                best = Some(Hit {
+                best = Some(PreliminaryHit {
                     t: h.t,
                     geom: *geom,
                     prim: 0,
@@ -227,9 +228,9 @@ impl RootShapes {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::{Quad, Sphere};
     use crate::math::Vec3;
     use crate::sampling::{uniform_sphere, Rng};
-    use crate::scene::shape::{Quad, Sphere};
 
     fn quad(p0: Vec3, e1: Vec3, e2: Vec3) -> Shape {
         Shape::new(Geometry::Quad(Quad::new(p0, e1, e2).unwrap()), 0)

@@ -15,12 +15,14 @@
 //! counted twice. Emitters that are not sampled, and the environment, are
 //! found only by hitting them and count fully.
 
-use crate::accel::{Backend, Hit};
+use crate::accel::Backend;
+use crate::geometry::PreliminaryHit;
+use crate::geometry::SurfacePoint;
 use crate::math::{
     fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
 };
 use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
-use crate::scene::{Lobes, Material, Scene, SurfacePoint};
+use crate::scene::{Lobes, Material, Scene};
 use std::f32::consts::FRAC_1_PI;
 
 /// Settings of one integration.
@@ -179,7 +181,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         &self,
         lobes: Lobes,
         material: &Material,
-        hit: &Hit,
+        hit: &PreliminaryHit,
         sp: &SurfacePoint,
         cos_o: f32,
         rng: &mut Rng,
@@ -198,7 +200,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     fn choose_mixed_lobe(
         &self,
         material: &Material,
-        hit: &Hit,
+        hit: &PreliminaryHit,
         sp: &SurfacePoint,
         cos_o: f32,
         rng: &mut Rng,

@@ -2,8 +2,8 @@
 //! lights (emissive shapes; sampled too when they ask for it with
 //! `nee = true`) and a constant environment (found by escaping rays).
 
-use super::shape::{Geometry, Quad, SurfacePoint};
 use super::Shape;
+use crate::geometry::{Geometry, Quad, SurfacePoint};
 use crate::math::{luminance, Rgb, Vec2, Vec3};
 use crate::sampling::Discrete;
 
@@ -213,8 +213,8 @@ fn area_to_solid_angle(from: Vec3, sp: &SurfacePoint, pdf_area: f32) -> Option<f
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::Sphere;
     use crate::sampling::Rng;
-    use crate::scene::shape::Sphere;
 
     fn emitter(geometry: Geometry) -> Shape {
         let mut shape = Shape::new(geometry, 0);

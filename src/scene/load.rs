@@ -4,8 +4,8 @@
 //! the byte span of every table, then `build` validates them and builds the
 //! `Scene`. Every error names the file, the line and column, and the field.
 
-use super::shape::{Cuboid, Geometry, Mesh, Plane, Quad, Sphere};
 use super::{Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform};
+use crate::geometry::{Cuboid, Geometry, Mesh, Plane, Quad, Sphere};
 use crate::location::line_column;
 use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
 use serde::Deserialize;

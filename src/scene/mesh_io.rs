@@ -10,7 +10,7 @@
 //! Polygons are fan-triangulated. Elements and properties the renderer does
 //! not use (normals, colours, confidence, ...) are skipped.
 
-use super::shape::Mesh;
+use crate::geometry::Mesh;
 use crate::location::line_column;
 use crate::math::{Vec2, Vec3};
 use std::io::Read;

@@ -6,17 +6,15 @@ pub mod light;
 pub mod load;
 pub mod material;
 pub mod mesh_io;
-pub mod shape;
 pub mod texture;
 
 pub use camera::Camera;
 pub use light::{LightSampler, PointLight};
 pub use load::{load, load_bytes, load_str, SceneError};
 pub use material::{Lobes, Material, Shading};
-pub use shape::{Geometry, PrimHit, SurfacePoint};
 pub use texture::{Texture, UvTransform};
 
-use crate::accel::Hit;
+use crate::geometry::{Geometry, PreliminaryHit, PrimHit, SurfacePoint};
 use crate::math::{Ray, Rgb, Vec3};
 
 /// One shape of the scene; its index in `Scene::shapes` is its `geom` id.
@@ -137,7 +135,7 @@ impl Scene {
 
     /// The full surface point of a backend's preliminary hit.
     #[inline]
-    pub fn surface(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
+    pub fn surface(&self, ray: &Ray, hit: &PreliminaryHit) -> SurfacePoint {
         self.shapes[hit.geom as usize]
             .geometry
             .surface(hit.prim, ray, &prim_hit(hit))
@@ -155,7 +153,7 @@ impl Scene {
 
     /// Diffuse albedo at a surface point (texture applied).
     #[inline]
-    pub fn albedo(&self, hit: &Hit, sp: &SurfacePoint) -> Rgb {
+    pub fn albedo(&self, hit: &PreliminaryHit, sp: &SurfacePoint) -> Rgb {
         let shape = &self.shapes[hit.geom as usize];
         let m = &self.materials[shape.material as usize];
         match m.texture {
@@ -170,7 +168,7 @@ impl Scene {
 
 /// The shape-level part of a backend's hit.
 #[inline]
-fn prim_hit(hit: &Hit) -> PrimHit {
+fn prim_hit(hit: &PreliminaryHit) -> PrimHit {
     PrimHit {
         t: hit.t,
         u: hit.u,

@@ -13,10 +13,11 @@
 pub mod plot;
 
 use crate::accel::{Accel, AccelError, BackendKind, BuildOptions, EmbreeQuality};
+use crate::geometry::Geometry;
 use crate::image::io::{self as imageio, ImageError, WriteOptions};
 use crate::image::{metrics, Image};
 use crate::render::{render_with, IntegratorSettings, Progress, RenderOptions};
-use crate::scene::{Geometry, Scene};
+use crate::scene::Scene;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -2,9 +2,9 @@
 //! break naive trees.
 
 use super::*;
+use crate::geometry::intersect_triangle;
 use crate::math::Ray;
 use crate::sampling::{uniform_sphere, Rng};
-use crate::scene::shape::intersect_triangle;
 
 type Tri = [Vec3; 3];
 

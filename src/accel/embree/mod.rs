@@ -16,7 +16,7 @@
 //!   (`Geometry::intersect`).
 //!
 //! Every geometry is attached with `rtcAttachGeometryByID` under the scene's
-//! own shape index, so Embree's `geomID` is `Hit::geom` without remapping.
+//! own shape index, so Embree's `geomID` is `PreliminaryHit::geom` without remapping.
 //!
 //! All Embree-3 specifics (layouts, constants, callback conventions) live in
 //! `sys3`; this file uses only its small safe API.
@@ -24,10 +24,12 @@
 mod sys3;
 
 use self::sys3 as sys;
-use super::{AccelError, BuildOptions, Hit, Tree};
+use super::{AccelError, BuildOptions, Tree};
+use crate::geometry::Geometry;
+use crate::geometry::PreliminaryHit;
+use crate::geometry::PrimHit;
 use crate::math::{Aabb, Ray};
-use crate::scene::shape::PrimHit;
-use crate::scene::{Geometry, Scene};
+use crate::scene::Scene;
 use std::sync::Arc;
 
 pub struct EmbreeBackend {
@@ -150,7 +152,7 @@ impl Tree for EmbreeBackend {
     }
 
     #[inline]
-    fn closest(&self, ray: &Ray) -> Option<Hit> {
+    fn closest(&self, ray: &Ray) -> Option<PreliminaryHit> {
         self.rtc.intersect(ray)
     }
 
@@ -163,8 +165,8 @@ impl Tree for EmbreeBackend {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geometry::{Mesh, Sphere};
     use crate::math::Vec3;
-    use crate::scene::shape::{Mesh, Sphere};
 
     fn scene_of(shapes: Vec<Geometry>) -> Arc<Scene> {
         Arc::new(Scene::of_geometry(shapes))

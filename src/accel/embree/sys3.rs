@@ -11,9 +11,10 @@
 //! callback argument structs change and the library is `embree4`) can sit
 //! beside this one behind the same API.
 
-use crate::accel::{EmbreeQuality, Hit};
+use crate::accel::EmbreeQuality;
+use crate::geometry::PreliminaryHit;
+use crate::geometry::PrimHit;
 use crate::math::{Aabb, Ray, Vec3};
-use crate::scene::shape::PrimHit;
 use std::ffi::{c_char, c_uint, c_void, CStr, CString};
 use std::sync::Mutex;
 
@@ -349,7 +350,7 @@ impl Scene {
     /// Closest hit in the ray's interval (Embree's: `tnear < t <= tfar` for
     /// its triangles; user primitives use luz's open interval).
     #[inline]
-    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+    pub fn intersect(&self, ray: &Ray) -> Option<PreliminaryHit> {
         let mut rh = RTCRayHit {
             ray: to_rtc_ray(ray),
             hit: RTCHit {
@@ -366,7 +367,7 @@ impl Scene {
         let mut ctx = RTCIntersectContext::new();
         // SAFETY: committed scene; both structs live across the call.
         unsafe { rtcIntersect1(self.raw, &mut ctx, &mut rh) };
-        (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID).then_some(Hit {
+        (rh.hit.geomID != RTC_INVALID_GEOMETRY_ID).then_some(PreliminaryHit {
             t: rh.ray.tfar,
             geom: rh.hit.geomID,
             prim: rh.hit.primID,

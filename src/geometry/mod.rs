@@ -1,6 +1,8 @@
-//! Shapes: one per file, each with its intersection routine (shared by both
-//! backends), the surface point it builds from a preliminary hit, and, where
-//! it can be an area light, its sampling routines.
+//! Geometry, below both `accel` and `scene`: the shapes, one per file, each
+//! with its intersection routine (shared by both backends), the surface
+//! point it builds from a preliminary hit, and, where it can be an area
+//! light, its sampling routines; and what the layers above share about
+//! them, the backends' `PreliminaryHit` and the shading's `SurfacePoint`.
 
 mod cuboid;
 mod mesh;
@@ -15,6 +17,19 @@ pub use quad::Quad;
 pub use sphere::Sphere;
 
 use crate::math::{Aabb, Ray, Vec2, Vec3};
+
+/// Preliminary hit: ray parameter, the scene's shape id (`geom`), the
+/// primitive within it (`prim`: triangle index, 0 otherwise) and two
+/// shape-specific coordinates (barycentrics of vertices 1 and 2 for
+/// triangles, quad parameters for quads).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PreliminaryHit {
+    pub t: f32,
+    pub geom: u32,
+    pub prim: u32,
+    pub u: f32,
+    pub v: f32,
+}
 
 /// What a primitive intersection routine returns: the ray parameter and two
 /// shape-specific coordinates (barycentrics, quad parameters).
