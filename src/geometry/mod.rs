@@ -91,6 +91,7 @@ impl Geometry {
         }
     }
 
+    #[inline]
     pub fn surface(&self, prim: u32, ray: &Ray, hit: &PrimHit) -> SurfacePoint {
         match self {
             Geometry::Sphere(s) => s.surface(ray, hit),
