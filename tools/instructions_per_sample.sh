@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Instructions per sample of a render, counted by callgrind, so that they do
+# not depend on machine load: a 64x64 render on one thread at 16 and at 48
+# spp, and the difference divided by the 32 x 64 x 64 samples between them,
+# which leaves loading and the BVH build out.
+#
+#   tools/instructions_per_sample.sh SCENE [BACKEND] [BINARY]
+#
+# BACKEND: rust (default) or embree. BINARY: default target/release/luz.
+# Needs valgrind (apt-get install valgrind); meshes from $LUZ_ASSETS.
+set -euo pipefail
+if [ $# -lt 1 ]; then
+    sed -n '2,10p' "$0" >&2
+    exit 2
+fi
+scene=$1
+backend=${2:-rust}
+luz=${3:-target/release/luz}
+export LUZ_ASSETS="${LUZ_ASSETS:-$(dirname "$0")/../../shared/assets}"
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+instructions() {
+    valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.out" "$luz" render "$scene" \
+        --backend "$backend" --threads 1 --spp "$1" --resolution 64x64 --quiet \
+        --checkpoint-every off -o "$work/image.exr" 2>&1 |
+        sed -n 's/.*Collected : \([0-9]*\).*/\1/p'
+}
+low=$(instructions 16)
+high=$(instructions 48)
+echo "$scene $backend: $(((high - low) / (32 * 64 * 64))) instructions per sample"
