@@ -1,5 +1,9 @@
-//! 4-wide float vector: SSE on x86_64 (always available there), plain arrays
-//! elsewhere. `min`/`max` return the *second* operand when either is NaN,
+//! Float vectors. `F4`, four lanes: SSE on x86_64 (always available there),
+//! plain arrays elsewhere. `F8`, eight lanes of AVX, for kernels compiled
+//! for AVX and chosen at run time (`has_avx`); `Lanes` lets one packed test
+//! serve both widths.
+//!
+//! `F4`: `min`/`max` return the *second* operand when either is NaN,
 //! exactly like `minps`/`maxps`; traversal relies on that to drop NaN.
 //! Comparisons give lane masks (`M4`); `bits` packs them into an integer.
 //! Every operation is one IEEE single-precision operation per lane, so code
@@ -159,4 +163,180 @@ mod imp {
     }
 }
 
-pub use imp::F4;
+pub use imp::{F4, M4};
+
+/// What packed shape tests need of a vector of lanes, so that one test
+/// serves SSE's four lanes and AVX's eight. Every operation is one IEEE
+/// single-precision operation per lane, so both widths compute the very
+/// values of the same scalar code.
+pub trait Lanes: Copy {
+    const N: usize;
+    type Mask: Copy;
+    fn splat(v: f32) -> Self;
+    /// The first `N` floats of `a`.
+    fn load(a: &[f32]) -> Self;
+    /// Into the first `N` floats of `out`.
+    fn store(self, out: &mut [f32]);
+    fn add(self, o: Self) -> Self;
+    fn sub(self, o: Self) -> Self;
+    fn mul(self, o: Self) -> Self;
+    fn div(self, o: Self) -> Self;
+    fn lt(self, o: Self) -> Self::Mask;
+    fn le(self, o: Self) -> Self::Mask;
+    fn gt(self, o: Self) -> Self::Mask;
+    fn ge(self, o: Self) -> Self::Mask;
+    fn and(a: Self::Mask, b: Self::Mask) -> Self::Mask;
+    /// Bit `k` set where lane `k` of `m` is.
+    fn bits(m: Self::Mask) -> u32;
+}
+
+impl Lanes for F4 {
+    const N: usize = 4;
+    type Mask = M4;
+    #[inline(always)]
+    fn splat(v: f32) -> Self {
+        F4::splat(v)
+    }
+    #[inline(always)]
+    fn load(a: &[f32]) -> Self {
+        F4::load(a[..4].try_into().expect("four floats"))
+    }
+    #[inline(always)]
+    fn store(self, out: &mut [f32]) {
+        out[..4].copy_from_slice(&self.to_array());
+    }
+    #[inline(always)]
+    fn add(self, o: Self) -> Self {
+        F4::add(self, o)
+    }
+    #[inline(always)]
+    fn sub(self, o: Self) -> Self {
+        F4::sub(self, o)
+    }
+    #[inline(always)]
+    fn mul(self, o: Self) -> Self {
+        F4::mul(self, o)
+    }
+    #[inline(always)]
+    fn div(self, o: Self) -> Self {
+        F4::div(self, o)
+    }
+    #[inline(always)]
+    fn lt(self, o: Self) -> M4 {
+        F4::lt(self, o)
+    }
+    #[inline(always)]
+    fn le(self, o: Self) -> M4 {
+        F4::le(self, o)
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> M4 {
+        F4::gt(self, o)
+    }
+    #[inline(always)]
+    fn ge(self, o: Self) -> M4 {
+        F4::ge(self, o)
+    }
+    #[inline(always)]
+    fn and(a: M4, b: M4) -> M4 {
+        a.and(b)
+    }
+    #[inline(always)]
+    fn bits(m: M4) -> u32 {
+        m.bits()
+    }
+}
+
+/// Whether this CPU runs AVX (`F8`). std caches the detection, so a call
+/// costs a load and a test.
+#[inline(always)]
+pub fn has_avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+pub use avx::F8;
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::Lanes;
+    use std::arch::x86_64::*;
+
+    /// Eight lanes of AVX. Its operations are AVX intrinsics inlined into
+    /// their caller: an `F8` may exist only inside a function compiled with
+    /// `#[target_feature(enable = "avx")]` and called after `has_avx()`,
+    /// where they become single instructions (elsewhere they would not be
+    /// inlined, and on a CPU without AVX they would fault).
+    #[derive(Clone, Copy)]
+    pub struct F8(__m256);
+
+    #[derive(Clone, Copy)]
+    pub struct M8(__m256);
+
+    macro_rules! binop {
+        ($name:ident, $intr:ident) => {
+            #[inline(always)]
+            fn $name(self, o: F8) -> F8 {
+                // SAFETY: see the type's invariant.
+                unsafe { F8($intr(self.0, o.0)) }
+            }
+        };
+    }
+    macro_rules! cmpop {
+        ($name:ident, $pred:ident) => {
+            #[inline(always)]
+            fn $name(self, o: F8) -> M8 {
+                // SAFETY: see the type's invariant.
+                unsafe { M8(_mm256_cmp_ps::<$pred>(self.0, o.0)) }
+            }
+        };
+    }
+
+    impl Lanes for F8 {
+        const N: usize = 8;
+        type Mask = M8;
+        #[inline(always)]
+        fn splat(v: f32) -> F8 {
+            // SAFETY: see the type's invariant.
+            unsafe { F8(_mm256_set1_ps(v)) }
+        }
+        #[inline(always)]
+        fn load(a: &[f32]) -> F8 {
+            let a = &a[..8];
+            // SAFETY: reads the eight floats of `a`; AVX as above.
+            unsafe { F8(_mm256_loadu_ps(a.as_ptr())) }
+        }
+        #[inline(always)]
+        fn store(self, out: &mut [f32]) {
+            let out = &mut out[..8];
+            // SAFETY: writes the eight floats of `out`; AVX as above.
+            unsafe { _mm256_storeu_ps(out.as_mut_ptr(), self.0) }
+        }
+        binop!(add, _mm256_add_ps);
+        binop!(sub, _mm256_sub_ps);
+        binop!(mul, _mm256_mul_ps);
+        binop!(div, _mm256_div_ps);
+        // Ordered, non-signalling: false on NaN, as SSE's comparisons.
+        cmpop!(lt, _CMP_LT_OQ);
+        cmpop!(le, _CMP_LE_OQ);
+        cmpop!(gt, _CMP_GT_OQ);
+        cmpop!(ge, _CMP_GE_OQ);
+        #[inline(always)]
+        fn and(a: M8, b: M8) -> M8 {
+            // SAFETY: see the type's invariant.
+            unsafe { M8(_mm256_and_ps(a.0, b.0)) }
+        }
+        #[inline(always)]
+        fn bits(m: M8) -> u32 {
+            // SAFETY: see the type's invariant.
+            unsafe { _mm256_movemask_ps(m.0) as u32 }
+        }
+    }
+}

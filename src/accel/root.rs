@@ -13,17 +13,22 @@
 //! also bit for bit the same for both backends, and Embree calls back into
 //! Rust for none of them.
 //!
-//! Quads are tested four at a time (`QuadPack`), with the very operations of
-//! `Quad::intersect`, so a hit is the one the scalar routine finds. The
+//! Quads are tested eight at a time with AVX where the CPU has it (chosen
+//! at run time, so one binary serves every x86_64 CPU), four at a time with
+//! SSE elsewhere (`QuadPack`), with the very operations of
+//! `Quad::intersect`, so a hit is the one the scalar routine finds at
+//! either width. The
 //! other shapes are copied (they are small) and tested one by one.
 
 use crate::geometry::Geometry;
 use crate::geometry::PreliminaryHit;
 use crate::math::{Aabb, Ray};
 use crate::scene::Shape;
-use crate::simd::F4;
+#[cfg(target_arch = "x86_64")]
+use crate::simd::F8;
+use crate::simd::{has_avx, Lanes, F4};
 
-/// Quads go to the root when a scene has at most this many (two packs),
+/// Quads go to the root when a scene has at most this many (one pack),
 /// else all of them into the trees. Measured on floors and walls tiled into
 /// n quads (docs/performance.md): the root's linear test beats the native
 /// tree up to 5 quads and is level with it at 9; Embree's tree, which
@@ -38,66 +43,68 @@ pub const ROOT_OTHERS: usize = 4;
 /// area of the scene's bounds.
 pub const LARGE_AREA: f32 = 0.1;
 
-/// Four quads as structure of arrays: `p0[c][k]` is coordinate `c` of
+/// Quads in one pack: eight, which AVX tests at once and SSE in two halves.
+const PACK: usize = 8;
+
+/// `PACK` quads as structure of arrays: `p0[c][k]` is coordinate `c` of
 /// quad `k`'s corner; `n` its unit normal, `du`/`dv` its dual basis
 /// (`Quad::dual`). Padding lanes are NaN and never hit.
 #[repr(C, align(64))]
 #[derive(Clone, Copy, Debug)]
 struct QuadPack {
-    p0: [[f32; 4]; 3],
-    n: [[f32; 4]; 3],
-    du: [[f32; 4]; 3],
-    dv: [[f32; 4]; 3],
-    geom: [u32; 4],
+    p0: [[f32; PACK]; 3],
+    n: [[f32; PACK]; 3],
+    du: [[f32; PACK]; 3],
+    dv: [[f32; PACK]; 3],
+    geom: [u32; PACK],
 }
 
 impl QuadPack {
     const EMPTY: QuadPack = QuadPack {
-        p0: [[f32::NAN; 4]; 3],
-        n: [[f32::NAN; 4]; 3],
-        du: [[f32::NAN; 4]; 3],
-        dv: [[f32::NAN; 4]; 3],
-        geom: [u32::MAX; 4],
+        p0: [[f32::NAN; PACK]; 3],
+        n: [[f32::NAN; PACK]; 3],
+        du: [[f32::NAN; PACK]; 3],
+        dv: [[f32::NAN; PACK]; 3],
+        geom: [u32::MAX; PACK],
     };
 
-    /// Lane mask of the quads hit in `(ray.t_min, t_max)`, with `t, u, v`.
+    /// Lanes `first..first + L::N` hit in `(ray.t_min, t_max)` (bit mask),
+    /// with their `t, u, v`: `Quad::intersect`, operation for operation.
     #[inline(always)]
-    fn intersect(&self, r: &SplatRay, t_max: f32) -> (u32, F4, F4, F4) {
-        let load = |a: &[[f32; 4]; 3]| [F4::load(&a[0]), F4::load(&a[1]), F4::load(&a[2])];
-        let dot = |a: [F4; 3], b: [F4; 3]| a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]));
+    fn intersect<L: Lanes>(&self, first: usize, r: &SplatRay<L>, t_max: f32) -> (u32, L, L, L) {
+        let load = |a: &[[f32; PACK]; 3]| a.map(|row| L::load(&row[first..]));
+        let dot = |a: [L; 3], b: [L; 3]| a[0].mul(b[0]).add(a[1].mul(b[1])).add(a[2].mul(b[2]));
         let (p0, n) = (load(&self.p0), load(&self.n));
         let denom = dot(n, r.dir);
         let to_p0 = [0, 1, 2].map(|c| p0[c].sub(r.origin[c]));
         let t = dot(to_p0, n).div(denom);
-        let in_range = t.gt(r.t_min).and(t.lt(F4::splat(t_max))).bits();
+        let in_range = L::bits(L::and(t.gt(r.t_min), t.lt(L::splat(t_max))));
         if in_range == 0 {
             return (0, t, t, t);
         }
         let rel = [0, 1, 2].map(|c| r.origin[c].add(t.mul(r.dir[c])).sub(p0[c]));
         let u = dot(rel, load(&self.du));
         let v = dot(rel, load(&self.dv));
-        let (zero, one) = (F4::splat(0.0), F4::splat(1.0));
-        let inside = u.ge(zero).and(u.le(one)).and(v.ge(zero)).and(v.le(one));
-        (in_range & inside.bits(), t, u, v)
+        let (zero, one) = (L::splat(0.0), L::splat(1.0));
+        let inside = L::and(L::and(u.ge(zero), u.le(one)), L::and(v.ge(zero), v.le(one)));
+        (in_range & L::bits(inside), t, u, v)
     }
 }
 
-/// A ray splatted across four lanes.
-struct SplatRay {
-    origin: [F4; 3],
-    dir: [F4; 3],
-    t_min: F4,
+/// A ray splatted across the lanes.
+struct SplatRay<L> {
+    origin: [L; 3],
+    dir: [L; 3],
+    t_min: L,
 }
 
-impl SplatRay {
+impl<L: Lanes> SplatRay<L> {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
-        let o = ray.origin;
-        let d = ray.dir;
         Self {
-            origin: [F4::splat(o.x), F4::splat(o.y), F4::splat(o.z)],
-            dir: [F4::splat(d.x), F4::splat(d.y), F4::splat(d.z)],
-            t_min: F4::splat(ray.t_min),
+            origin: ray.origin.to_array().map(L::splat),
+            dir: ray.dir.to_array().map(L::splat),
+            t_min: L::splat(ray.t_min),
         }
     }
 }
@@ -113,6 +120,11 @@ impl RootShapes {
     /// The root shapes of `shapes`, and per shape whether it is one of them
     /// (the backends' trees take the others).
     pub fn of(shapes: &[Shape]) -> (Self, Vec<bool>) {
+        Self::with_quad_limit(shapes, ROOT_QUADS)
+    }
+
+    /// `of`, with quads at the root when there are at most `max_quads`.
+    fn with_quad_limit(shapes: &[Shape], max_quads: usize) -> (Self, Vec<bool>) {
         let bounds = |g: &Geometry| match g {
             Geometry::Mesh(m) => m.bounds(),
             g => g.primitive_bounds(0).unwrap_or(Aabb::EMPTY),
@@ -126,7 +138,7 @@ impl RootShapes {
             |f: &dyn Fn(&Geometry) -> bool| shapes.iter().filter(|s| f(&s.geometry)).count();
         let is_quad = |g: &Geometry| matches!(g, Geometry::Quad(_));
         let is_other = |g: &Geometry| matches!(g, Geometry::Sphere(_) | Geometry::Cuboid(_));
-        let quads_at_root = count(&is_quad) <= ROOT_QUADS;
+        let quads_at_root = count(&is_quad) <= max_quads;
         let others_at_root = count(&|g| is_other(g) && large(g)) <= ROOT_OTHERS;
         let at_root = |g: &Geometry| match g {
             Geometry::Plane(_) => true,
@@ -144,11 +156,11 @@ impl RootShapes {
             match &shape.geometry {
                 _ if !here => {}
                 Geometry::Quad(q) => {
-                    if quads % 4 == 0 {
+                    if quads % PACK == 0 {
                         root.quads.push(QuadPack::EMPTY);
                     }
                     let pack = root.quads.last_mut().expect("pushed above");
-                    let k = quads % 4;
+                    let k = quads % PACK;
                     let (du, dv) = q.dual();
                     for c in 0..3 {
                         pack.p0[c][k] = q.p0[c];
@@ -169,30 +181,8 @@ impl RootShapes {
     /// same distance, the first found (quads first, then in scene order).
     #[inline]
     pub fn closest(&self, ray: &Ray) -> Option<PreliminaryHit> {
-        let mut best: Option<PreliminaryHit> = None;
-        let mut t_max = ray.t_max;
-        if !self.quads.is_empty() {
-            let r = SplatRay::new(ray);
-            for pack in &self.quads {
-                let (mask, t, u, v) = pack.intersect(&r, t_max);
-                if mask == 0 {
-                    continue;
-                }
-                let (t, u, v) = (t.to_array(), u.to_array(), v.to_array());
-                for k in 0..4 {
-                    if mask & (1 << k) != 0 && t[k] < t_max {
-                        t_max = t[k];
-                        best = Some(PreliminaryHit {
-                            t: t[k],
-                            geom: pack.geom[k],
-                            prim: 0,
-                            u: u[k],
-                            v: v[k],
-                        });
-                    }
-                }
-            }
-        }
+        let mut best = self.closest_quad(ray);
+        let mut t_max = best.map_or(ray.t_max, |h| h.t);
         let mut r = *ray;
         for (geom, g) in &self.others {
             r.t_max = t_max;
@@ -213,15 +203,95 @@ impl RootShapes {
     /// Whether any root shape is hit in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        if !self.quads.is_empty() {
-            let r = SplatRay::new(ray);
-            if self.quads.iter().any(|p| p.intersect(&r, ray.t_max).0 != 0) {
-                return true;
+        self.any_quad(ray)
+            || self
+                .others
+                .iter()
+                .any(|(_, g)| g.intersect(0, ray).is_some())
+    }
+
+    /// The closest quad hit, eight quads at a time where the CPU has AVX.
+    #[inline(always)]
+    fn closest_quad(&self, ray: &Ray) -> Option<PreliminaryHit> {
+        if self.quads.is_empty() {
+            return None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if has_avx() {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.closest_quad_avx(ray) };
+        }
+        self.closest_quad_in::<F4>(ray)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn closest_quad_avx(&self, ray: &Ray) -> Option<PreliminaryHit> {
+        self.closest_quad_in::<F8>(ray)
+    }
+
+    /// The first of the nearest lanes, as a scalar loop over the quads in
+    /// scene order finds it.
+    #[inline(always)]
+    fn closest_quad_in<L: Lanes>(&self, ray: &Ray) -> Option<PreliminaryHit> {
+        let r = SplatRay::<L>::new(ray);
+        let mut t_max = ray.t_max;
+        let mut best = None;
+        for pack in &self.quads {
+            for first in (0..PACK).step_by(L::N) {
+                let (mask, t, u, v) = pack.intersect(first, &r, t_max);
+                if mask == 0 {
+                    continue;
+                }
+                let (mut ts, mut us, mut vs) = ([0.0; PACK], [0.0; PACK], [0.0; PACK]);
+                t.store(&mut ts);
+                u.store(&mut us);
+                v.store(&mut vs);
+                for k in 0..L::N {
+                    if mask & (1 << k) != 0 && ts[k] < t_max {
+                        t_max = ts[k];
+                        best = Some(PreliminaryHit {
+                            t: ts[k],
+                            geom: pack.geom[first + k],
+                            prim: 0,
+                            u: us[k],
+                            v: vs[k],
+                        });
+                    }
+                }
             }
         }
-        self.others
-            .iter()
-            .any(|(_, g)| g.intersect(0, ray).is_some())
+        best
+    }
+
+    /// Whether any quad is hit, eight at a time where the CPU has AVX.
+    #[inline(always)]
+    fn any_quad(&self, ray: &Ray) -> bool {
+        if self.quads.is_empty() {
+            return false;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if has_avx() {
+            // SAFETY: the CPU has AVX.
+            return unsafe { self.any_quad_avx(ray) };
+        }
+        self.any_quad_in::<F4>(ray)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn any_quad_avx(&self, ray: &Ray) -> bool {
+        self.any_quad_in::<F8>(ray)
+    }
+
+    #[inline(always)]
+    fn any_quad_in<L: Lanes>(&self, ray: &Ray) -> bool {
+        let r = SplatRay::<L>::new(ray);
+        self.quads.iter().any(|pack| {
+            (0..PACK)
+                .step_by(L::N)
+                .any(|first| pack.intersect(first, &r, ray.t_max).0 != 0)
+        })
     }
 }
 
@@ -287,6 +357,40 @@ mod tests {
             assert_eq!(got, expected, "{ray:?}");
             assert_eq!(root.any_hit(&ray), expected.is_some(), "{ray:?}");
         }
+    }
+
+    /// Both widths compute the same operations per lane, so they agree bit
+    /// for bit, on twelve quads (two packs, the second half empty).
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn avx_and_sse_quad_tests_agree_bit_for_bit() {
+        if !has_avx() {
+            eprintln!("no AVX on this CPU: only the SSE width runs");
+            return;
+        }
+        let mut shapes = cornell()[..6].to_vec();
+        for k in 0..6 {
+            let p = Vec3::new(-0.9 + 0.3 * k as f32, 0.2 + 0.1 * k as f32, -0.9);
+            shapes.push(quad(p, 0.4 * Vec3::Z, 0.3 * Vec3::X + 0.1 * Vec3::Y));
+        }
+        let root = RootShapes::with_quad_limit(&shapes, 12).0;
+        assert_eq!(root.quads.len(), 2);
+        let mut rng = Rng::new(9, 9);
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            let o = Vec3::new(0.0, 1.0, 0.0) + 0.9 * uniform_sphere(rng.next_2d());
+            let mut ray = Ray::new(o, uniform_sphere(rng.next_2d()));
+            ray.t_max = 3.0 * rng.next_f32();
+            let sse = root.closest_quad_in::<F4>(&ray);
+            // SAFETY: the CPU has AVX.
+            let avx = unsafe { root.closest_quad_avx(&ray) };
+            assert_eq!(sse, avx, "{ray:?}");
+            assert_eq!(root.any_quad_in::<F4>(&ray), unsafe {
+                root.any_quad_avx(&ray)
+            });
+            hits += sse.is_some() as u32;
+        }
+        assert!(hits > 10_000, "{hits} hits");
     }
 
     #[test]
