@@ -1,7 +1,7 @@
 //! The native Rust backend: two BVHs over the shapes `Accel` does not test
 //! at the root, one over mesh triangles and one over analytic shapes
-//! (spheres, quads, cuboids; used only when a scene has more than
-//! `root::ROOT_LIMIT` of them).
+//! (spheres, quads, cuboids; empty unless a scene has many quads or small
+//! spheres and cuboids, `accel::root`).
 //!
 //! Triangles are stored by their three vertices in packs of four,
 //! structure of arrays, in the triangle BVH's (4-aligned) leaf order: a leaf
