@@ -19,6 +19,9 @@ pub trait Backend: Send + Sync {
 /// root shapes have already shortened.
 pub trait Tree: Send + Sync {
     fn name(&self) -> &'static str;
+    /// Whether the tree holds nothing (every shape at the root, as in a
+    /// Cornell box without a mesh): `Accel` then skips it.
+    fn is_empty(&self) -> bool;
     /// Closest hit of the tree's shapes in `(ray.t_min, ray.t_max)`.
     fn closest(&self, ray: &Ray) -> Option<PreliminaryHit>;
     /// Whether any of the tree's shapes is hit in `(ray.t_min, ray.t_max)`.
@@ -192,6 +195,9 @@ impl<T: Tree> Backend for Layered<'_, T> {
         }
         // The root first: its walls bound how far the tree is walked.
         let root = self.root.closest(ray);
+        if self.tree.is_empty() {
+            return root;
+        }
         let mut r = *ray;
         if let Some(h) = &root {
             r.t_max = h.t;
@@ -201,7 +207,8 @@ impl<T: Tree> Backend for Layered<'_, T> {
 
     #[inline]
     fn occluded(&self, ray: &Ray) -> bool {
-        traceable(ray) && (self.root.any_hit(ray) || self.tree.any_hit(ray))
+        traceable(ray)
+            && (self.root.any_hit(ray) || (!self.tree.is_empty() && self.tree.any_hit(ray)))
     }
 }
 

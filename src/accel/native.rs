@@ -325,6 +325,10 @@ impl Tree for NativeBackend {
         "rust"
     }
 
+    fn is_empty(&self) -> bool {
+        self.packs.is_empty() && self.analytic.is_empty()
+    }
+
     #[inline]
     fn closest(&self, ray: &Ray) -> Option<PreliminaryHit> {
         let tr = TravRay::new(ray);

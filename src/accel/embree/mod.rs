@@ -37,6 +37,8 @@ pub struct EmbreeBackend {
     // `scene`'s shapes) goes first, the shapes last.
     rtc: sys::Scene,
     device: sys::Device,
+    /// No geometry was attached.
+    empty: bool,
     /// Owns the vertex and index buffers Embree reads (shared, not copied)
     /// and the user geometry it calls back into.
     _scene: Arc<Scene>,
@@ -84,6 +86,7 @@ impl EmbreeBackend {
         let rtc = device
             .new_scene(quality, options.embree_robust)
             .map_err(AccelError::Embree)?;
+        let mut empty = true;
         for (id, shape) in scene.shapes.iter().enumerate() {
             if in_root[id] {
                 continue;
@@ -124,11 +127,13 @@ impl EmbreeBackend {
             }
             .map_err(AccelError::Embree)?;
             device.attach(&rtc, &geom, id).map_err(AccelError::Embree)?;
+            empty = false;
         }
         device.commit(&rtc).map_err(AccelError::Embree)?;
         Ok(Self {
             rtc,
             device,
+            empty,
             _scene: scene,
         })
     }
@@ -149,6 +154,10 @@ pub fn library_version() -> Option<String> {
 impl Tree for EmbreeBackend {
     fn name(&self) -> &'static str {
         "embree"
+    }
+
+    fn is_empty(&self) -> bool {
+        self.empty
     }
 
     #[inline]
