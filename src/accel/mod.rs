@@ -258,3 +258,74 @@ pub fn embree_version() -> Option<String> {
     #[cfg(not(luz_embree))]
     None
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{Geometry, Mesh, Plane, Quad, Sphere};
+    use crate::math::Vec3;
+
+    /// A plane, a quad and a sphere (root shapes) and a triangle (a tree's),
+    /// all on the ray below.
+    fn scene() -> Arc<Scene> {
+        let z = |z: f32| Vec3::new(-1.0, -1.0, z);
+        Arc::new(Scene::of_geometry([
+            Geometry::Plane(Plane::new(Vec3::new(0.0, 0.0, -9.0), Vec3::Z)),
+            Geometry::Quad(Quad::new(z(-4.0), 2.0 * Vec3::X, 2.0 * Vec3::Y).unwrap()),
+            Geometry::Sphere(Sphere {
+                center: Vec3::new(0.0, 0.0, -6.0),
+                radius: 0.5,
+            }),
+            Geometry::Mesh(Mesh {
+                positions: vec![
+                    z(-2.0),
+                    Vec3::new(1.0, -1.0, -2.0),
+                    Vec3::new(0.0, 1.0, -2.0),
+                ],
+                indices: vec![[0, 1, 2]],
+                uvs: None,
+            }),
+        ]))
+    }
+
+    /// One check in `Accel`, for the root shapes and both trees: a ray with
+    /// a NaN or infinite origin, direction or `t_min`, a NaN `t_max`, or an
+    /// empty interval hits nothing and is occluded by nothing.
+    #[test]
+    fn untraceable_rays_hit_nothing_in_either_backend() {
+        let scene = scene();
+        let good = Ray::new(Vec3::ZERO, -Vec3::Z);
+        let mut bad = Vec::new();
+        for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
+            for axis in 0..3 {
+                let mut r = good;
+                r.origin[axis] = v;
+                bad.push(r);
+                let mut r = good;
+                r.dir[axis] = v;
+                bad.push(r);
+            }
+            let mut r = good;
+            r.t_min = v;
+            bad.push(r);
+        }
+        let mut r = good;
+        r.t_max = f32::NAN;
+        bad.push(r);
+        bad.push(Ray { t_max: 0.0, ..good });
+        let kinds: &[BackendKind] = if cfg!(luz_embree) {
+            &[BackendKind::Rust, BackendKind::Embree]
+        } else {
+            &[BackendKind::Rust]
+        };
+        for &kind in kinds {
+            let accel = Accel::build(&scene, kind, &BuildOptions::default()).unwrap();
+            let hit = accel.intersect(&good).expect("the triangle");
+            assert_eq!((hit.geom, accel.occluded(&good)), (3, true), "{kind:?}");
+            for r in &bad {
+                assert_eq!(accel.intersect(r), None, "{kind:?} {r:?}");
+                assert!(!accel.occluded(r), "{kind:?} {r:?}");
+            }
+        }
+    }
+}
