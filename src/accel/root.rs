@@ -8,20 +8,19 @@
 //! scene (a Cornell box's walls and light) are hit by almost every ray, so
 //! walking a tree of their boxes only adds node visits: a callgrind profile
 //! of the bunny counted 2.3 node visits and 0.9 out-of-line quad tests per
-//! closest-hit query in the walls' tree, about 300 instructions, where one
-//! 4-wide test of the six quads costs under 100. Tested once here, they are
-//! also bit for bit the same for both backends, and Embree calls back into
-//! Rust for none of them.
+//! closest-hit query in the walls' tree. Tested here instead, they took the
+//! bunny from 7,649 to 6,933 instructions per sample (docs/performance.md),
+//! they are bit for bit the same for both backends, and Embree calls back
+//! into Rust for none of them.
 //!
 //! Quads are tested eight at a time with AVX where the CPU has it (chosen
 //! at run time, so one binary serves every x86_64 CPU), four at a time with
 //! SSE elsewhere (`QuadPack`), with the very operations of
 //! `Quad::intersect`, so a hit is the one the scalar routine finds at
-//! either width. The
-//! other shapes are copied (they are small) and tested one by one.
+//! either width. The other shapes are copied (they are small) and tested
+//! one by one.
 
-use crate::geometry::Geometry;
-use crate::geometry::PreliminaryHit;
+use crate::geometry::{Geometry, PreliminaryHit};
 use crate::math::{Aabb, Ray};
 use crate::scene::Shape;
 #[cfg(target_arch = "x86_64")]
@@ -35,15 +34,15 @@ use crate::simd::{has_avx, Lanes, F4};
 /// 1,601 at 17, 1,719 / 1,635 at 33; Embree's tree, which calls back into
 /// Rust per quad, costs more still. Four lanes of SSE alone were level with
 /// the native tree at 9 quads.
-pub const ROOT_QUADS: usize = 16;
+const ROOT_QUADS: usize = 16;
 /// Spheres and cuboids, tested one by one, go to the root only when they
 /// are large, at most this many: a big sphere in a Cornell box is entered
 /// by as many rays as its box, a small one by few (measured: five spheres
 /// of radius 0.25 in a 2-unit box cost 19% more at the root than in a tree).
-pub const ROOT_OTHERS: usize = 4;
+const ROOT_OTHERS: usize = 4;
 /// "Large": a bounding box with at least this fraction of the surface
 /// area of the scene's bounds.
-pub const LARGE_AREA: f32 = 0.1;
+const LARGE_AREA: f32 = 0.1;
 
 /// Quads in one pack: eight, which AVX tests at once and SSE in two halves.
 const PACK: usize = 8;
@@ -126,15 +125,21 @@ impl RootShapes {
             Geometry::Mesh(m) => m.bounds(),
             g => g.primitive_bounds(0).unwrap_or(Aabb::EMPTY),
         };
-        let scene_area = shapes
-            .iter()
-            .fold(Aabb::EMPTY, |a, s| a.union(bounds(&s.geometry)))
-            .half_area();
-        let large = |g: &Geometry| bounds(g).half_area() >= LARGE_AREA * scene_area;
         let count =
             |f: &dyn Fn(&Geometry) -> bool| shapes.iter().filter(|s| f(&s.geometry)).count();
         let is_quad = |g: &Geometry| matches!(g, Geometry::Quad(_));
         let is_other = |g: &Geometry| matches!(g, Geometry::Sphere(_) | Geometry::Cuboid(_));
+        // The scene's bounds pass over every mesh vertex: only for scenes
+        // that have spheres or cuboids to judge by them.
+        let scene_area = if count(&is_other) > 0 {
+            shapes
+                .iter()
+                .fold(Aabb::EMPTY, |a, s| a.union(bounds(&s.geometry)))
+                .half_area()
+        } else {
+            0.0
+        };
+        let large = |g: &Geometry| bounds(g).half_area() >= LARGE_AREA * scene_area;
         let quads_at_root = count(&is_quad) <= ROOT_QUADS;
         let others_at_root = count(&|g| is_other(g) && large(g)) <= ROOT_OTHERS;
         let at_root = |g: &Geometry| match g {

@@ -16,7 +16,8 @@
 //!   (`Geometry::intersect`).
 //!
 //! Every geometry is attached with `rtcAttachGeometryByID` under the scene's
-//! own shape index, so Embree's `geomID` is `PreliminaryHit::geom` without remapping.
+//! own shape index, so Embree's `geomID` is `PreliminaryHit::geom` without
+//! remapping.
 //!
 //! All Embree-3 specifics (layouts, constants, callback conventions) live in
 //! `sys3`; this file uses only its small safe API.
@@ -25,9 +26,7 @@ mod sys3;
 
 use self::sys3 as sys;
 use super::{AccelError, BuildOptions, Tree};
-use crate::geometry::Geometry;
-use crate::geometry::PreliminaryHit;
-use crate::geometry::PrimHit;
+use crate::geometry::{Geometry, PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray};
 use crate::scene::Scene;
 use std::sync::Arc;
@@ -149,8 +148,9 @@ pub fn library_version() -> Option<String> {
     sys::Device::new(None).ok().map(|d| d.version())
 }
 
-/// Rays Embree must not see: it leaves the behaviour on NaN/infinite
-/// origins or directions undefined, while luz's routines miss them.
+/// Rays reach it checked by `Accel` (`accel::traceable`): Embree leaves
+/// the behaviour on NaN or infinite origins and directions undefined, while
+/// luz's routines miss them.
 impl Tree for EmbreeBackend {
     fn name(&self) -> &'static str {
         "embree"
