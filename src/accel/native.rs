@@ -22,9 +22,7 @@
 
 use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
 use super::Tree;
-use crate::geometry::Geometry;
-use crate::geometry::PreliminaryHit;
-use crate::geometry::{exact_zeros, has_zero_area, ShearedRay};
+use crate::geometry::{exact_zeros, has_zero_area, Geometry, PreliminaryHit, ShearedRay};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::Shape;
 use crate::simd::F4;

@@ -16,8 +16,7 @@
 //! found only by hitting them and count fully.
 
 use crate::accel::Backend;
-use crate::geometry::PreliminaryHit;
-use crate::geometry::SurfacePoint;
+use crate::geometry::{PreliminaryHit, SurfacePoint};
 use crate::math::{
     fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
 };

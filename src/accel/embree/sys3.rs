@@ -12,8 +12,7 @@
 //! beside this one behind the same API.
 
 use crate::accel::EmbreeQuality;
-use crate::geometry::PreliminaryHit;
-use crate::geometry::PrimHit;
+use crate::geometry::{PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray, Vec3};
 use std::ffi::{c_char, c_uint, c_void, CStr, CString};
 use std::sync::Mutex;
