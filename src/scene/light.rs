@@ -242,11 +242,13 @@ mod tests {
             let lights = LightSampler::new(&shapes, |_| Rgb::ONE);
             let from = Vec3::new(0.3, 0.0, 0.2);
             let mut rng = Rng::new(1, 2);
+            let mut sampled = 0;
             for _ in 0..1000 {
                 let (u_pick, u) = (rng.next_f32(), rng.next_2d());
                 let Some(ls) = lights.sample(&shapes, from, u_pick, u) else {
                     continue;
                 };
+                sampled += 1;
                 // The quad, when there is one, is shape 0 at y = 2.
                 let geom = if ls.point.p.y > 1.75 {
                     0
@@ -258,6 +260,8 @@ mod tests {
                 assert!((ls.pdf - pdf).abs() <= 1e-4 * pdf, "{} vs {pdf}", ls.pdf);
                 assert_eq!(ls.emission, Rgb::ONE);
             }
+            // Every emitter is in view of `from`: nearly every sample counts.
+            assert!(sampled > 900, "{sampled} samples");
         }
     }
 
