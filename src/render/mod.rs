@@ -8,6 +8,7 @@ pub mod integrator;
 pub mod merge;
 pub mod part;
 pub mod passes;
+mod scene_hash;
 pub mod task;
 
 pub use film::{Film, PixelSum};

@@ -27,16 +27,15 @@
 //!
 //! The resolution is the EXR data window.
 
+pub use super::scene_hash::scene_hash;
 use super::Film;
 use crate::image::io::write_atomic;
 use crate::image::ImageError;
-use crate::scene::Scene;
 use exr::prelude::{
     AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image as ExrImage, Layer,
     LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text, WritableImage,
 };
 use std::collections::HashMap;
-use std::fmt::Write as _;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
@@ -120,34 +119,6 @@ const SAMPLES: &str = "luz:samples";
 const BACKEND: &str = "luz:backend";
 const NON_FINITE: &str = "luz:nonFinite";
 const RGB: [&str; 3] = ["R", "G", "B"];
-
-/// A 64-bit FNV-1a hash, fed through `fmt::Write` so a scene can be hashed
-/// from its `Debug` form without building that (large) string.
-struct Fnv(u64);
-
-impl std::fmt::Write for Fnv {
-    fn write_str(&mut self, s: &str) -> std::fmt::Result {
-        for &b in s.as_bytes() {
-            self.0 = (self.0 ^ b as u64).wrapping_mul(0x100_0000_01b3);
-        }
-        Ok(())
-    }
-}
-
-/// A hash of everything in `scene` that changes the value of a sample:
-/// camera (resolution included), shapes, meshes, textures, materials,
-/// lights, maximum depth and Russian roulette, but not the seed (recorded
-/// on its own) nor the sample count (parts of one render differ in it).
-/// It hashes the loaded scene, so meshes and textures count by content and
-/// the scene file's comments and formatting do not count at all.
-pub fn scene_hash(scene: &Scene) -> u64 {
-    let mut scene = scene.clone();
-    scene.render.spp = 0;
-    scene.render.seed = 0;
-    let mut hash = Fnv(0xcbf2_9ce4_8422_2325);
-    write!(hash, "{scene:?}").expect("hashing cannot fail");
-    hash.0
-}
 
 /// Formats sample ranges as `luz:samples` stores them: `0..64,128..192`.
 pub fn format_ranges(ranges: &[Range<u32>]) -> String {
