@@ -22,10 +22,11 @@
 
 use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
 use super::Tree;
-use crate::geometry::{exact_zeros, has_zero_area, Geometry, PreliminaryHit, ShearedRay};
+use crate::geometry::{exact_zeros, has_zero_area, Geometry, Mesh, PreliminaryHit, ShearedRay};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::scene::Shape;
 use crate::simd::F4;
+use rayon::prelude::*;
 
 /// Four triangles: `p[v][c][k]` is coordinate `c` of vertex `v` of
 /// triangle `k`; then the scene's ids of the four, read only for the final
@@ -150,6 +151,64 @@ fn intersect_pack(pack: &TriPack, r: &PackRay, t_max: f32) -> (u32, F4, F4, F4) 
     (mask, t, e1.mul(inv_det), e2.mul(inv_det))
 }
 
+/// The triangles of several meshes, numbered one after the other.
+#[derive(Default)]
+struct Triangles<'a> {
+    meshes: Vec<(u32, &'a Mesh)>,
+    /// First triangle number of each mesh.
+    first: Vec<usize>,
+    count: usize,
+}
+
+impl<'a> Triangles<'a> {
+    fn push(&mut self, geom: u32, mesh: &'a Mesh) {
+        self.meshes.push((geom, mesh));
+        self.first.push(self.count);
+        self.count += mesh.triangle_count();
+    }
+
+    fn count(&self) -> usize {
+        self.count
+    }
+
+    /// Scene id, mesh and triangle of triangle number `i`.
+    #[inline]
+    fn get(&self, i: usize) -> (u32, &'a Mesh, u32) {
+        let m = self.first.partition_point(|&f| f <= i) - 1;
+        let (geom, mesh) = self.meshes[m];
+        (geom, mesh, (i - self.first[m]) as u32)
+    }
+
+    fn bounds(&self, i: usize) -> Aabb {
+        let (_, mesh, prim) = self.get(i);
+        mesh.triangle_bounds(prim)
+    }
+
+    /// The packs of the triangles in slot order `order`.
+    fn packs(&self, order: &[u32]) -> Vec<TriPack> {
+        order
+            .par_chunks(4)
+            .with_min_len(1024)
+            .map(|slots| {
+                let mut pack = TriPack::EMPTY;
+                for (k, &i) in slots.iter().enumerate() {
+                    if i == PADDING {
+                        continue;
+                    }
+                    let (geom, mesh, prim) = self.get(i as usize);
+                    let p = mesh.vertices(prim);
+                    // A triangle of zero area stays NaN, as
+                    // `intersect_triangle` never hits it.
+                    if !has_zero_area(p) {
+                        pack.set(k, p, geom, prim);
+                    }
+                }
+                pack
+            })
+            .collect()
+    }
+}
+
 pub struct NativeBackend {
     /// Over mesh triangles, 4-aligned leaves.
     tri_bvh: Bvh,
@@ -164,43 +223,33 @@ pub struct NativeBackend {
 impl NativeBackend {
     /// The trees over `shapes`, less those `in_root` (which `Accel` tests).
     pub fn new(shapes: &[Shape], in_root: &[bool]) -> Self {
-        Self::with_quality(shapes, in_root, BuildQuality::Balanced)
+        Self::with_quality(shapes, in_root, BuildQuality::Medium)
     }
 
     pub fn with_quality(shapes: &[Shape], in_root: &[bool], quality: BuildQuality) -> Self {
-        let mut tri_boxes = Vec::new();
-        let mut tris = Vec::new();
+        let mut meshes = Triangles::default();
         let mut boxes = Vec::new();
         let mut analytic = Vec::new();
         for (geom, shape) in shapes.iter().enumerate() {
             if in_root[geom] {
                 continue;
             }
-            let geom = geom as u32;
             match &shape.geometry {
-                Geometry::Mesh(m) => {
-                    for prim in 0..m.triangle_count() as u32 {
-                        let [p0, p1, p2] = m.vertices(prim);
-                        tri_boxes.push(Aabb::from_points(&[p0, p1, p2]));
-                        tris.push(([p0, p1, p2], geom, prim));
-                    }
-                }
+                Geometry::Mesh(m) => meshes.push(geom as u32, m),
                 g => {
                     boxes.push(g.primitive_bounds(0).expect("planes are root shapes"));
-                    analytic.push((geom, g.clone()));
+                    analytic.push((geom as u32, g.clone()));
                 }
             }
         }
         let (tri_bvh, analytic_bvh) = rayon::join(
             || {
-                Bvh::build_with(
-                    &tri_boxes,
-                    &BuildSettings {
-                        quality,
-                        align: 4,
-                        leaf_cost: 1.0,
-                    },
-                )
+                let settings = BuildSettings {
+                    quality,
+                    align: 4,
+                    leaf_cost: 1.0,
+                };
+                Bvh::build_over(meshes.count(), |i| meshes.bounds(i), &settings)
             },
             // An analytic shape costs more than a box test: small leaves.
             || {
@@ -214,18 +263,7 @@ impl NativeBackend {
                 )
             },
         );
-        let order = tri_bvh.primitive_indices();
-        let mut packs = vec![TriPack::EMPTY; order.len() / 4];
-        for (slot, &i) in order.iter().enumerate() {
-            if i != PADDING {
-                let (p, geom, prim) = tris[i as usize];
-                // A triangle of zero area stays NaN, as
-                // `intersect_triangle` never hits it.
-                if !has_zero_area(p) {
-                    packs[slot / 4].set(slot % 4, p, geom, prim);
-                }
-            }
-        }
+        let packs = meshes.packs(tri_bvh.primitive_indices());
         let analytic = analytic_bvh
             .primitive_indices()
             .iter()

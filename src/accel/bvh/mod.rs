@@ -12,8 +12,9 @@
 //! `BuildSettings::align` starts every leaf on a multiple of `align` slots
 //! and pads it to one, so a caller can store primitives in SIMD packs (the
 //! native backend tests four triangles at once); the SAH then counts leaf
-//! cost in packs. Presets (`BuildQuality`): Fast = 8 bins, leaves up to 8;
-//! Balanced = 16 bins, up to 6 (8 when packed by 4); High = 48 bins, up to 4.
+//! cost in packs. Presets (`BuildQuality`): Low = a Morton-code build
+//! (`morton`), leaves up to 8; Medium = binned SAH with 16 bins, leaves up
+//! to 6 (8 when packed by 4); High = 48 bins, up to 4.
 //!
 //! The 4-wide tree is what the binary SAH tree becomes: a flattened array
 //! of 128-byte nodes (two cache lines; six SoA bound rows, child indices,
@@ -38,24 +39,25 @@
 
 mod build;
 mod collapse;
+mod morton;
 mod node;
 mod traverse;
 
 pub use traverse::TravRay;
 
-use crate::math::{Aabb, Vec3};
-use build::BuildCtx;
+use crate::math::Aabb;
+use build::{prim_refs, BuildCtx, PrimRef};
 use collapse::Collapse;
 use node::Node4;
 
 /// Named build presets.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BuildQuality {
-    /// Few bins, bigger leaves: quickest build.
-    Fast,
-    /// The default: what renders use.
+    /// A Morton-code (LBVH) build: the quickest, for few rays per triangle.
+    Low,
+    /// Binned SAH: what most renders use.
     #[default]
-    Balanced,
+    Medium,
     /// Many bins, small leaves: slowest build, fastest traversal (slightly).
     High,
 }
@@ -73,13 +75,13 @@ struct Preset {
 impl BuildQuality {
     fn preset(self) -> Preset {
         match self {
-            BuildQuality::Fast => Preset {
+            BuildQuality::Low => Preset {
                 bins: 8,
                 max_leaf: 8,
                 traversal_cost: 1.0,
                 pack_cost: 1.0,
             },
-            BuildQuality::Balanced => Preset {
+            BuildQuality::Medium => Preset {
                 bins: 16,
                 max_leaf: 6,
                 traversal_cost: 1.0,
@@ -112,7 +114,7 @@ pub struct BuildSettings {
 impl Default for BuildSettings {
     fn default() -> Self {
         Self {
-            quality: BuildQuality::Balanced,
+            quality: BuildQuality::Medium,
             align: 1,
             leaf_cost: 1.0,
         }
@@ -149,18 +151,29 @@ impl Bvh {
 
     /// As `build`, with the leaf layout and costs of `settings`.
     pub fn build_with(boxes: &[Aabb], settings: &BuildSettings) -> Bvh {
+        Self::build_over(boxes.len(), |i| boxes[i], settings)
+    }
+
+    /// As `build_with`, over the boxes `box_of(0..count)`, which it asks
+    /// for once each (in parallel), so the caller need not store them.
+    pub fn build_over(
+        count: usize,
+        box_of: impl Fn(usize) -> Aabb + Sync,
+        settings: &BuildSettings,
+    ) -> Bvh {
         let align = settings.align.clamp(1, 16);
         let mut preset = settings.quality.preset();
         preset.max_leaf = preset.max_leaf.div_ceil(align) * align;
         if settings.leaf_cost.is_finite() && settings.leaf_cost > 0.0 {
             preset.pack_cost = settings.leaf_cost;
         }
-        let mut order: Vec<u32> = (0..boxes.len() as u32)
-            .filter(|&i| {
-                let b = &boxes[i as usize];
-                b.is_finite() && !b.is_empty()
-            })
-            .collect();
+        let (root, order) = if settings.quality == BuildQuality::Low {
+            morton::build(count, &box_of, preset.max_leaf, align)
+        } else {
+            let mut refs = prim_refs(count, box_of);
+            let root = BuildCtx { preset, align }.build(&mut refs, 0, 0);
+            (root, refs.iter().map(PrimRef::index).collect())
+        };
         if order.is_empty() {
             return Bvh {
                 nodes: Vec::new(),
@@ -168,17 +181,6 @@ impl Bvh {
                 depth: 0,
             };
         }
-        let centroids: Vec<Vec3> = boxes.iter().map(|b| b.centroid()).collect();
-        let ctx = BuildCtx {
-            boxes,
-            centroids: &centroids,
-            preset,
-            align,
-        };
-        let bounds = order
-            .iter()
-            .fold(Aabb::EMPTY, |a, &i| a.union(boxes[i as usize]));
-        let root = ctx.build(&mut order, 0, bounds, 0);
         let mut out = Collapse {
             nodes: Vec::with_capacity(order.len() / 2 + 1),
             src: &order,

@@ -3,10 +3,13 @@
 
 use super::*;
 use crate::geometry::intersect_triangle;
-use crate::math::Ray;
+use crate::math::{Ray, Vec3};
 use crate::sampling::{uniform_sphere, Rng};
 
 type Tri = [Vec3; 3];
+
+/// Every preset: the Morton build (`Low`) and the two SAH builds.
+const QUALITIES: [BuildQuality; 3] = [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High];
 
 fn boxes_of(tris: &[Tri]) -> Vec<Aabb> {
     tris.iter().map(|t| Aabb::from_points(t)).collect()
@@ -115,11 +118,7 @@ fn matches_brute_force_on_1e5_random_rays() {
     let mut rng = Rng::new(7, 1);
     let tris = soup(&mut rng, 3000, 1.0, 0.08);
     let rays: Vec<Ray> = (0..100_000).map(|_| random_ray(&mut rng, 1.0)).collect();
-    for q in [
-        BuildQuality::Balanced,
-        BuildQuality::Fast,
-        BuildQuality::High,
-    ] {
+    for q in QUALITIES {
         let hits = check(&tris, &rays, q);
         assert!(hits > 10_000 && hits < 90_000, "{hits} hits");
     }
@@ -132,18 +131,28 @@ fn matches_brute_force_on_1e5_random_rays() {
 fn aligned_leaves_pad_and_match_brute_force() {
     let mut rng = Rng::new(10, 1);
     let tris = soup(&mut rng, 2000, 1.0, 0.08);
-    let settings = BuildSettings {
-        align: 4,
-        ..BuildSettings::default()
-    };
-    let bvh = Bvh::build_with(&boxes_of(&tris), &settings);
+    for quality in QUALITIES {
+        let settings = BuildSettings {
+            quality,
+            align: 4,
+            ..BuildSettings::default()
+        };
+        check_aligned(
+            &tris,
+            &Bvh::build_with(&boxes_of(&tris), &settings),
+            &mut rng,
+        );
+    }
+}
+
+fn check_aligned(tris: &[Tri], bvh: &Bvh, rng: &mut Rng) {
     let order = bvh.primitive_indices();
     assert_eq!(order.len() % 4, 0);
     let mut real: Vec<u32> = order.iter().copied().filter(|&i| i != PADDING).collect();
     real.sort_unstable();
     assert!(real.iter().enumerate().all(|(i, &p)| i as u32 == p));
     for _ in 0..20_000 {
-        let ray = random_ray(&mut rng, 1.0);
+        let ray = random_ray(rng, 1.0);
         let got = bvh.intersect_leaves(&ray, |first, count, r| {
             assert_eq!(first % 4, 0);
             let mut r = *r;
@@ -158,7 +167,7 @@ fn aligned_leaves_pad_and_match_brute_force() {
             }
             best
         });
-        assert_eq!(got.map(|g| g.0), brute(&tris, &ray).map(|e| e.0), "{ray:?}");
+        assert_eq!(got.map(|g| g.0), brute(tris, &ray).map(|e| e.0), "{ray:?}");
     }
 }
 
@@ -168,8 +177,10 @@ fn huge_and_tiny_scales() {
     for scale in [1e-4f32, 1e-2, 1e2, 1e4] {
         let tris = soup(&mut rng, 800, scale, 0.1);
         let rays: Vec<Ray> = (0..20_000).map(|_| random_ray(&mut rng, scale)).collect();
-        let hits = check(&tris, &rays, BuildQuality::Balanced);
-        assert!(hits > 1000, "scale {scale}: {hits} hits");
+        for quality in QUALITIES {
+            let hits = check(&tris, &rays, quality);
+            assert!(hits > 1000, "scale {scale}, {quality:?}: {hits} hits");
+        }
     }
 }
 
@@ -226,10 +237,10 @@ fn axis_parallel_rays_and_flat_boxes() {
         r.dir[(axis + 1) % 3] = -0.0;
         rays.push(r);
     }
-    let hits = check(&tris, &rays, BuildQuality::Balanced);
+    let hits = check(&tris, &rays, BuildQuality::Medium);
     assert!(hits > 5000, "{hits} hits");
     // No NaN ever reaches a result.
-    let bvh = Bvh::build(&boxes_of(&tris), BuildQuality::Balanced);
+    let bvh = Bvh::build(&boxes_of(&tris), BuildQuality::Medium);
     for r in &rays {
         if let Some((t, _)) = closest(&bvh, &tris, r) {
             assert!(t.is_finite());
@@ -239,14 +250,20 @@ fn axis_parallel_rays_and_flat_boxes() {
 
 #[test]
 fn empty_single_and_invalid_inputs() {
+    for quality in QUALITIES {
+        empty_single_and_invalid(quality);
+    }
+}
+
+fn empty_single_and_invalid(quality: BuildQuality) {
     let ray = Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z);
-    let empty = Bvh::build(&[], BuildQuality::Balanced);
+    let empty = Bvh::build(&[], quality);
     assert!(empty.primitive_indices().is_empty());
     assert!(empty.intersect_with(&ray, |_, _| Some((1.0, ()))).is_none());
     assert!(!empty.occluded(&ray, |_, _| true));
 
     let tri = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
-    let one = Bvh::build(&boxes_of(&tri), BuildQuality::Balanced);
+    let one = Bvh::build(&boxes_of(&tri), quality);
     assert_eq!(one.primitive_indices(), &[0]);
     assert_eq!(closest(&one, &tri, &ray), Some((1.0, 0)));
     assert!(any(&one, &tri, &ray));
@@ -255,7 +272,7 @@ fn empty_single_and_invalid_inputs() {
     // NaN and empty boxes get no slot; NaN rays hit nothing.
     let nan = Aabb::new(Vec3::splat(f32::NAN), Vec3::ONE);
     let boxes = [nan, boxes_of(&tri)[0], Aabb::EMPTY];
-    let bvh = Bvh::build(&boxes, BuildQuality::Balanced);
+    let bvh = Bvh::build(&boxes, quality);
     assert_eq!(bvh.primitive_indices(), &[1]);
     let bad = Ray::new(Vec3::splat(f32::NAN), Vec3::Z);
     assert!(bvh.intersect_with(&bad, |_, _| Some((1.0, ()))).is_none());
@@ -268,8 +285,14 @@ fn empty_single_and_invalid_inputs() {
 /// and every primitive is still found.
 #[test]
 fn depth_guard_and_identical_boxes() {
+    for quality in QUALITIES {
+        depth_guard(quality);
+    }
+}
+
+fn depth_guard(quality: BuildQuality) {
     let same = vec![Aabb::new(Vec3::ZERO, Vec3::ONE); 10_000];
-    let bvh = Bvh::build(&same, BuildQuality::High);
+    let bvh = Bvh::build(&same, quality);
     assert!(bvh.depth() <= MAX_DEPTH);
     let mut seen = vec![false; same.len()];
     let ray = Ray::new(Vec3::new(0.5, 0.5, -1.0), Vec3::Z);
@@ -285,7 +308,7 @@ fn depth_guard_and_identical_boxes() {
             Aabb::new(Vec3::new(x, 0.0, 0.0), Vec3::new(x, 1.0, 1.0))
         })
         .collect();
-    let bvh = Bvh::build(&spread, BuildQuality::High);
+    let bvh = Bvh::build(&spread, quality);
     assert!(bvh.depth() <= MAX_DEPTH);
     let mut order = bvh.primitive_indices().to_vec();
     order.sort_unstable();
