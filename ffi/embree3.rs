@@ -1426,6 +1426,18 @@ extern "C" {
     ) -> *mut core::ffi::c_void;
 }
 extern "C" {
+    pub fn rtcSetSharedGeometryBuffer(
+        geometry: RTCGeometry,
+        type_: RTCBufferType,
+        slot: core::ffi::c_uint,
+        format: RTCFormat,
+        ptr: *const core::ffi::c_void,
+        byteOffset: usize,
+        byteStride: usize,
+        itemCount: usize,
+    );
+}
+extern "C" {
     pub fn rtcSetGeometryUserData(geometry: RTCGeometry, ptr: *mut core::ffi::c_void);
 }
 extern "C" {

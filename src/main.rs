@@ -3,7 +3,7 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
-use luz::accel::{Accel, Backend as _, BackendKind, BuildOptions, EmbreeQuality};
+use luz::accel::{Accel, Backend as _, BackendKind, BuildOptions, Quality};
 use luz::image::io::{self as imageio, WriteOptions};
 use luz::image::metrics;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
@@ -209,9 +209,15 @@ struct SettingsArgs {
     /// Image size as WIDTHxHEIGHT, overriding the scene's.
     #[arg(long, value_parser = parse_resolution)]
     resolution: Option<(u32, u32)>,
-    /// Embree's BVH quality: low, medium, high.
-    #[arg(long, default_value = "medium")]
-    embree_quality: EmbreeQuality,
+    /// The native BVH's build: auto, low (Morton codes, quickest), medium
+    /// (binned SAH), high. auto: low below one sample per triangle, else
+    /// medium.
+    #[arg(long, default_value = "auto")]
+    bvh_quality: Quality,
+    /// Embree's BVH quality: auto, low, medium, high. auto: low and compact
+    /// below one sample per triangle, else medium.
+    #[arg(long, default_value = "auto")]
+    embree_quality: Quality,
     /// Embree's robust (watertight, slower) traversal.
     #[arg(long)]
     embree_robust: bool,
@@ -220,6 +226,7 @@ struct SettingsArgs {
 impl SettingsArgs {
     fn build_options(&self) -> BuildOptions {
         BuildOptions {
+            bvh_quality: self.bvh_quality,
             embree_quality: self.embree_quality,
             embree_robust: self.embree_robust,
         }

@@ -17,7 +17,7 @@ pub fn parse<T: Copy>(
 
 #[cfg(test)]
 mod tests {
-    use crate::accel::{BackendKind, EmbreeQuality};
+    use crate::accel::{BackendKind, Quality};
 
     #[test]
     fn names_parse_back_and_unknown_ones_list_the_known() {
@@ -26,8 +26,8 @@ mod tests {
         }
         assert_eq!("native".parse::<BackendKind>(), Ok(BackendKind::Rust));
         assert_eq!(
-            "fast".parse::<EmbreeQuality>(),
-            Err("unknown Embree quality `fast` (known: low, medium, high)".to_string())
+            "fast".parse::<Quality>(),
+            Err("unknown build quality `fast` (known: auto, low, medium, high)".to_string())
         );
     }
 }

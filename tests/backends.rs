@@ -164,16 +164,16 @@ fn t_error(ray: &Ray, a: f32, b: f32) -> f32 {
 /// subtract the origin from the vertices first.
 #[test]
 fn embree_matches_native_on_1e5_rays_at_four_scales() {
-    use luz::accel::EmbreeQuality;
+    use luz::accel::Quality;
     if !embree_compiled() {
         return;
     }
     let settings = [
-        (1e-3f32, EmbreeQuality::Medium, false),
-        (1.0, EmbreeQuality::Low, false),
-        (1.0, EmbreeQuality::High, true),
-        (1e4, EmbreeQuality::Medium, true),
-        (1e6, EmbreeQuality::Medium, false),
+        (1e-3f32, Quality::Medium, false),
+        (1.0, Quality::Low, false),
+        (1.0, Quality::High, true),
+        (1e4, Quality::Medium, true),
+        (1e6, Quality::Medium, false),
     ];
     let mut rng = Rng::new(12, 0);
     for (scale, quality, robust) in settings {
@@ -182,6 +182,7 @@ fn embree_matches_native_on_1e5_rays_at_four_scales() {
         let options = BuildOptions {
             embree_quality: quality,
             embree_robust: robust,
+            ..BuildOptions::default()
         };
         let embree = Accel::build(&scene, BackendKind::Embree, &options).unwrap();
         assert_eq!(embree.name(), "embree");

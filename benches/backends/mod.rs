@@ -19,7 +19,7 @@
 
 use criterion::measurement::WallTime;
 use criterion::{black_box, BenchmarkGroup, Criterion, SamplingMode, Throughput};
-use luz::accel::{Accel, Backend, BackendKind, BuildOptions, EmbreeQuality};
+use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Quality};
 use luz::geometry::Geometry;
 use luz::math::{spawn_ray, spawn_ray_to, Aabb, Frame, Mat4, Ray, Vec2, Vec3};
 use luz::sampling::{cosine_hemisphere, Rng};
@@ -168,7 +168,7 @@ fn build_variants() -> Vec<(String, BackendKind, BuildOptions)> {
         BuildOptions::default(),
     )];
     if luz::accel::compiled_backends().contains(&"embree") {
-        for quality in EmbreeQuality::ALL {
+        for quality in [Quality::Low, Quality::Medium, Quality::High] {
             let options = BuildOptions {
                 embree_quality: quality,
                 ..BuildOptions::default()

@@ -32,7 +32,10 @@ pub mod bvh;
 #[cfg(luz_embree)]
 pub mod embree;
 pub mod native;
+mod quality;
 mod root;
+
+pub use quality::{Quality, Work};
 
 use crate::scene::Scene;
 use native::NativeBackend;
@@ -80,7 +83,7 @@ impl std::str::FromStr for BackendKind {
     }
 }
 
-/// Embree's BVH build quality.
+/// Embree's BVH build quality (`Quality` resolved for Embree).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum EmbreeQuality {
     Low,
@@ -89,29 +92,10 @@ pub enum EmbreeQuality {
     High,
 }
 
-impl EmbreeQuality {
-    pub const ALL: [EmbreeQuality; 3] = [Self::Low, Self::Medium, Self::High];
-
-    /// The name `FromStr` accepts.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Low => "low",
-            Self::Medium => "medium",
-            Self::High => "high",
-        }
-    }
-}
-
-impl std::str::FromStr for EmbreeQuality {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        crate::names::parse(s, &Self::ALL, Self::name, "Embree quality")
-    }
-}
-
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct BuildOptions {
-    pub embree_quality: EmbreeQuality,
+    pub bvh_quality: Quality,
+    pub embree_quality: Quality,
     pub embree_robust: bool,
 }
 
@@ -145,18 +129,23 @@ impl Accel {
         options: &BuildOptions,
     ) -> Result<Self, AccelError> {
         let (root, in_root) = RootShapes::of(&scene.shapes);
-        let native = || AccelTree::Native(NativeBackend::new(&scene.shapes, &in_root));
+        let work = Work::of(scene);
+        let native = || {
+            let quality = options.bvh_quality.native(work);
+            AccelTree::Native(NativeBackend::with_quality(
+                &scene.shapes,
+                &in_root,
+                quality,
+            ))
+        };
         let tree = match kind {
             BackendKind::Rust => native(),
             #[cfg(luz_embree)]
             BackendKind::Embree | BackendKind::Auto => AccelTree::Embree(
-                embree::EmbreeBackend::new(scene.clone(), &in_root, options)?,
+                embree::EmbreeBackend::new(scene.clone(), &in_root, options, work)?,
             ),
             #[cfg(not(luz_embree))]
-            BackendKind::Auto => {
-                let _ = options;
-                native()
-            }
+            BackendKind::Auto => native(),
             #[cfg(not(luz_embree))]
             BackendKind::Embree => return Err(AccelError::EmbreeMissing),
         };

@@ -792,6 +792,9 @@ impl Ctx<'_> {
                         ));
                     }
                 }
+                // Spare room after the last vertex lets Embree read luz's
+                // own array instead of copying it (its loads are 16 bytes).
+                mesh.positions.reserve_exact(1);
                 Geometry::Mesh(mesh)
             }
             _ => unreachable!("shape kinds are checked above"),

@@ -12,7 +12,7 @@
 
 pub mod plot;
 
-use crate::accel::{Accel, AccelError, BackendKind, BuildOptions, EmbreeQuality};
+use crate::accel::{Accel, AccelError, BackendKind, BuildOptions, Quality};
 use crate::geometry::Geometry;
 use crate::image::io::{self as imageio, ImageError, WriteOptions};
 use crate::image::{metrics, Image};
@@ -526,19 +526,15 @@ fn enumerate(
                             t
                         })
                         .collect(),
-                    Vary::EmbreeQuality => [
-                        EmbreeQuality::Low,
-                        EmbreeQuality::Medium,
-                        EmbreeQuality::High,
-                    ]
-                    .into_iter()
-                    .map(|q| {
-                        let mut t = s.clone();
-                        t.build.embree_quality = q;
-                        let _ = write!(t.label, " / {} quality", q.name());
-                        t
-                    })
-                    .collect(),
+                    Vary::EmbreeQuality => [Quality::Low, Quality::Medium, Quality::High]
+                        .into_iter()
+                        .map(|q| {
+                            let mut t = s.clone();
+                            t.build.embree_quality = q;
+                            let _ = write!(t.label, " / {} quality", q.name());
+                            t
+                        })
+                        .collect(),
                 }
             })
             .collect();
@@ -876,7 +872,7 @@ material = "floor"
         assert_eq!(t.len(), 2 + 3 * 2);
         assert_eq!(t[0].label, "rust / depth 2");
         assert_eq!(t[7].label, "embree / high quality / depth 9");
-        assert_eq!(t[7].build.embree_quality, EmbreeQuality::High);
+        assert_eq!(t[7].build.embree_quality, Quality::High);
     }
 
     #[test]

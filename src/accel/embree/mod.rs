@@ -25,7 +25,7 @@
 mod sys3;
 
 use self::sys3 as sys;
-use super::{AccelError, BuildOptions, Tree};
+use super::{AccelError, BuildOptions, Tree, Work};
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray};
 use crate::scene::Scene;
@@ -68,8 +68,9 @@ impl EmbreeBackend {
         scene: Arc<Scene>,
         in_root: &[bool],
         options: &BuildOptions,
+        work: Work,
     ) -> Result<Self, AccelError> {
-        Self::with_device_config(scene, in_root, options, None)
+        Self::with_device_config(scene, in_root, options, work, None)
     }
 
     /// `new` with an Embree device configuration string (`rtcNewDevice`'s
@@ -78,12 +79,13 @@ impl EmbreeBackend {
         scene: Arc<Scene>,
         in_root: &[bool],
         options: &BuildOptions,
+        work: Work,
         config: Option<&str>,
     ) -> Result<Self, AccelError> {
         let device = sys::Device::new(config).map_err(AccelError::Embree)?;
-        let quality = options.embree_quality;
+        let (quality, compact) = options.embree_quality.embree(work);
         let rtc = device
-            .new_scene(quality, options.embree_robust)
+            .new_scene(quality, options.embree_robust, compact)
             .map_err(AccelError::Embree)?;
         let mut empty = true;
         for (id, shape) in scene.shapes.iter().enumerate() {
@@ -110,7 +112,12 @@ impl EmbreeBackend {
                             "shape {id}: triangle {t} refers to vertex {i}, but the mesh has {n} vertices"
                         )));
                     }
-                    device.new_triangles(&m.positions, &m.indices, quality)
+                    let spare = m.positions.capacity() > n;
+                    // SAFETY: with spare capacity, the 4 bytes after the
+                    // last vertex are allocated; the arrays live in
+                    // `scene`, which this backend holds and drops after the
+                    // Embree scene.
+                    unsafe { device.new_triangles(&m.positions, spare, &m.indices, quality) }
                 }
                 g => {
                     if !matches!(g.primitive_bounds(0), Some(b) if b.is_finite()) {
@@ -181,36 +188,50 @@ mod tests {
         Arc::new(Scene::of_geometry(shapes))
     }
 
+    fn build(scene: Arc<Scene>, in_root: &[bool]) -> Result<EmbreeBackend, AccelError> {
+        let work = Work::of(&scene);
+        EmbreeBackend::new(scene, in_root, &BuildOptions::default(), work)
+    }
+
+    /// Both ways of handing Embree a mesh: its own copy, and luz's array
+    /// when there is room after the last vertex.
     #[test]
     fn hits_report_the_scenes_own_ids() {
-        let scene = scene_of(vec![
-            Geometry::Sphere(Sphere {
-                center: Vec3::new(0.0, 0.0, -5.0),
-                radius: 1.0,
-            }),
-            Geometry::Mesh(Mesh {
-                positions: vec![
-                    Vec3::new(-1.0, -1.0, -2.0),
-                    Vec3::new(1.0, -1.0, -2.0),
-                    Vec3::new(0.0, 1.0, -2.0),
-                ],
-                indices: vec![[0, 1, 2]],
-                uvs: None,
-            }),
-        ]);
-        // Nothing at the root: the sphere is user geometry.
-        let b = EmbreeBackend::new(scene, &[false, false], &BuildOptions::default()).unwrap();
-        let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), -Vec3::Z);
-        let h = b.closest(&down(0.0)).unwrap();
-        assert_eq!((h.geom, h.prim), (1, 0));
-        assert!((h.t - 2.0).abs() < 1e-6);
-        // Beyond the triangle's tip at x = 0.9, only the sphere.
-        let h = b.closest(&down(0.9)).unwrap();
-        assert_eq!((h.geom, h.prim), (0, 0));
-        assert!(b.any_hit(&down(0.9)));
-        assert!(!b.any_hit(&Ray::segment(Vec3::new(0.9, 0.0, 0.0), -Vec3::Z, 3.0)));
-        assert!(b.closest(&down(3.0)).is_none());
-        assert_eq!(b.version().split('.').next(), Some("3"));
+        for spare in [false, true] {
+            let mut positions = vec![
+                Vec3::new(-1.0, -1.0, -2.0),
+                Vec3::new(1.0, -1.0, -2.0),
+                Vec3::new(0.0, 1.0, -2.0),
+            ];
+            positions.shrink_to_fit();
+            if spare {
+                positions.reserve_exact(1);
+            }
+            let scene = scene_of(vec![
+                Geometry::Sphere(Sphere {
+                    center: Vec3::new(0.0, 0.0, -5.0),
+                    radius: 1.0,
+                }),
+                Geometry::Mesh(Mesh {
+                    positions,
+                    indices: vec![[0, 1, 2]],
+                    uvs: None,
+                }),
+            ]);
+            // Nothing at the root: the sphere is user geometry.
+            let b = build(scene, &[false, false]).unwrap();
+            let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), -Vec3::Z);
+            let h = b.closest(&down(0.0)).unwrap();
+            assert_eq!((h.geom, h.prim), (1, 0));
+            assert!((h.t - 2.0).abs() < 1e-6);
+            // Beyond the triangle's tip at x = 0.9, only the sphere.
+            let h = b.closest(&down(0.9)).unwrap();
+            assert_eq!((h.geom, h.prim), (0, 0));
+            assert!(b.any_hit(&down(0.9)));
+            assert!(!b.any_hit(&Ray::segment(Vec3::new(0.9, 0.0, 0.0), -Vec3::Z, 3.0)));
+            assert!(b.closest(&down(3.0)).is_none());
+            assert_eq!(b.version().split('.').next(), Some("3"));
+        }
     }
 
     #[test]
@@ -220,6 +241,7 @@ mod tests {
             scene,
             &[],
             &BuildOptions::default(),
+            Work::of(&Scene::of_geometry(Vec::new())),
             Some("threads=x"),
         ) {
             Err(AccelError::Embree(m)) => assert!(m.contains("rtcNewDevice"), "{m}"),
@@ -235,7 +257,7 @@ mod tests {
             indices: vec![[0, 1, 7]],
             uvs: None,
         })]);
-        match EmbreeBackend::new(scene, &[false], &BuildOptions::default()) {
+        match build(scene, &[false]) {
             Err(AccelError::Embree(m)) => assert!(m.contains("vertex 7"), "{m}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("built"),

@@ -167,7 +167,14 @@ impl Device {
         Err(format!("{what}: {detail}"))
     }
 
-    pub fn new_scene(&self, quality: EmbreeQuality, robust: bool) -> Result<Scene, String> {
+    /// A scene built at `quality`, with the robust (watertight) traversal
+    /// when `robust`, and in Embree's compact layout when `compact`.
+    pub fn new_scene(
+        &self,
+        quality: EmbreeQuality,
+        robust: bool,
+        compact: bool,
+    ) -> Result<Scene, String> {
         // SAFETY: valid device; a null scene is checked below.
         let raw = unsafe { rtcNewScene(self.raw) };
         self.check("rtcNewScene")?;
@@ -177,14 +184,9 @@ impl Device {
         let scene = Scene { raw };
         unsafe {
             rtcSetSceneBuildQuality(raw, raw_quality(quality));
-            rtcSetSceneFlags(
-                raw,
-                if robust {
-                    RTC_SCENE_FLAG_ROBUST
-                } else {
-                    RTC_SCENE_FLAG_NONE
-                },
-            );
+            let robust = if robust { RTC_SCENE_FLAG_ROBUST } else { 0 };
+            let compact = if compact { RTC_SCENE_FLAG_COMPACT } else { 0 };
+            rtcSetSceneFlags(raw, RTC_SCENE_FLAG_NONE | robust | compact);
         }
         self.check("rtcSetSceneFlags")?;
         Ok(scene)
@@ -200,55 +202,102 @@ impl Device {
         Ok(Geometry { raw })
     }
 
-    /// A committed triangle mesh. Embree copies the data into buffers it
-    /// allocates (with the padding its SSE loads need). Every index must be
-    /// below `positions.len()`: Embree does not check.
-    pub fn new_triangles(
+    /// A committed triangle mesh over `positions` and `indices`. Embree
+    /// reads the last vertex with a 16-byte load, so when `positions` is
+    /// followed by 4 readable bytes (`spare`), Embree uses luz's own arrays
+    /// (`rtcSetSharedGeometryBuffer`: one copy of a large mesh, not two);
+    /// otherwise it copies them into buffers it pads itself. Every index
+    /// must be below `positions.len()`: Embree does not check.
+    ///
+    /// # Safety
+    ///
+    /// When `spare`, the 4 bytes after `positions` are readable, and
+    /// `positions` and `indices` outlive the geometry and the scenes it is
+    /// attached to.
+    pub unsafe fn new_triangles(
         &self,
         positions: &[Vec3],
+        spare: bool,
         indices: &[[u32; 3]],
         quality: EmbreeQuality,
     ) -> Result<Geometry, String> {
-        assert!(indices
+        debug_assert!(indices
             .iter()
             .all(|t| t.iter().all(|&i| (i as usize) < positions.len())));
-        let geom = self.new_geometry(RTC_GEOMETRY_TYPE_TRIANGLE)?;
+        let mut geom = self.new_geometry(RTC_GEOMETRY_TYPE_TRIANGLE)?;
+        // SAFETY: valid geometry; buffers of the stated sizes (Embree
+        // allocates the new ones; the caller vouches for the shared ones).
         unsafe {
             rtcSetGeometryBuildQuality(geom.raw, raw_quality(quality));
-            let v = rtcSetNewGeometryBuffer(
-                geom.raw,
-                RTC_BUFFER_TYPE_VERTEX,
-                0,
-                RTC_FORMAT_FLOAT3,
-                12,
-                positions.len(),
-            ) as *mut [f32; 3];
-            self.check("rtcSetNewGeometryBuffer(vertex)")?;
-            if v.is_null() {
-                return Err("rtcSetNewGeometryBuffer(vertex) returned null".into());
+            if spare {
+                rtcSetSharedGeometryBuffer(
+                    geom.raw,
+                    RTC_BUFFER_TYPE_VERTEX,
+                    0,
+                    RTC_FORMAT_FLOAT3,
+                    positions.as_ptr() as *const c_void,
+                    0,
+                    12,
+                    positions.len(),
+                );
+                self.check("rtcSetSharedGeometryBuffer(vertex)")?;
+                rtcSetSharedGeometryBuffer(
+                    geom.raw,
+                    RTC_BUFFER_TYPE_INDEX,
+                    0,
+                    RTC_FORMAT_UINT3,
+                    indices.as_ptr() as *const c_void,
+                    0,
+                    12,
+                    indices.len(),
+                );
+                self.check("rtcSetSharedGeometryBuffer(index)")?;
+            } else {
+                let v = self.new_buffer::<[f32; 3]>(
+                    &mut geom,
+                    RTC_BUFFER_TYPE_VERTEX,
+                    RTC_FORMAT_FLOAT3,
+                    positions.len(),
+                )?;
+                for (dst, p) in v.iter_mut().zip(positions) {
+                    *dst = p.to_array();
+                }
+                let ix = self.new_buffer::<[u32; 3]>(
+                    &mut geom,
+                    RTC_BUFFER_TYPE_INDEX,
+                    RTC_FORMAT_UINT3,
+                    indices.len(),
+                )?;
+                ix.copy_from_slice(indices);
             }
-            // SAFETY: Embree allocated `positions.len()` float3 items.
-            let v = std::slice::from_raw_parts_mut(v, positions.len());
-            for (dst, p) in v.iter_mut().zip(positions) {
-                *dst = p.to_array();
-            }
-            let ix = rtcSetNewGeometryBuffer(
-                geom.raw,
-                RTC_BUFFER_TYPE_INDEX,
-                0,
-                RTC_FORMAT_UINT3,
-                12,
-                indices.len(),
-            ) as *mut [u32; 3];
-            self.check("rtcSetNewGeometryBuffer(index)")?;
-            if ix.is_null() {
-                return Err("rtcSetNewGeometryBuffer(index) returned null".into());
-            }
-            std::slice::from_raw_parts_mut(ix, indices.len()).copy_from_slice(indices);
             rtcCommitGeometry(geom.raw);
         }
         self.check("rtcCommitGeometry(triangles)")?;
         Ok(geom)
+    }
+
+    /// A buffer of `count` 12-byte items that Embree allocates for `geom`.
+    ///
+    /// # Safety
+    ///
+    /// `T` is 12 bytes, the layout of `format`.
+    unsafe fn new_buffer<'g, T>(
+        &self,
+        geom: &'g mut Geometry,
+        kind: RTCBufferType,
+        format: RTCFormat,
+        count: usize,
+    ) -> Result<&'g mut [T], String> {
+        // SAFETY: valid geometry.
+        let ptr =
+            unsafe { rtcSetNewGeometryBuffer(geom.raw, kind, 0, format, 12, count) } as *mut T;
+        self.check("rtcSetNewGeometryBuffer")?;
+        if ptr.is_null() {
+            return Err("rtcSetNewGeometryBuffer returned null".into());
+        }
+        // SAFETY: Embree allocated `count` items of 12 bytes, which the
+        // geometry (alive as long as the backend) keeps.
+        Ok(unsafe { std::slice::from_raw_parts_mut(ptr, count) })
     }
 
     /// A committed user geometry of `count` primitives whose callbacks call
@@ -499,12 +548,10 @@ mod tests {
     #[test]
     fn embree_errors_reach_the_caller_with_embrees_message() {
         let d = Device::new(None).unwrap();
-        let s = d.new_scene(EmbreeQuality::Medium, false).unwrap();
-        let g = d.new_triangles(
-            &[Vec3::ZERO, Vec3::X, Vec3::Y],
-            &[[0, 1, 2]],
-            EmbreeQuality::Medium,
-        );
+        let s = d.new_scene(EmbreeQuality::Medium, false, false).unwrap();
+        let positions = [Vec3::ZERO, Vec3::X, Vec3::Y];
+        // SAFETY: not shared, so Embree copies the arrays.
+        let g = unsafe { d.new_triangles(&positions, false, &[[0, 1, 2]], EmbreeQuality::Medium) };
         let g = g.unwrap();
         d.attach(&s, &g, 3).unwrap();
         // The same id twice is an invalid operation.
