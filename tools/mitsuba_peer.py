@@ -43,7 +43,7 @@ def diffuse(rgb):
     return {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}}
 
 
-def scene(name, assets, spp):
+def scene(name, assets, spp, resolution=512, mesh=None):
     s = {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": 5, "rr_depth": 5, "hide_emitters": False},
@@ -53,7 +53,7 @@ def scene(name, assets, spp):
             "fov_axis": "y",
             "to_world": mi.ScalarTransform4f().look_at(origin=[0, 1, 3.7], target=[0, 1, 0], up=[0, 1, 0]),
             "sampler": {"type": "independent", "sample_count": spp},
-            "film": {"type": "hdrfilm", "width": 512, "height": 512, "pixel_format": "rgb",
+            "film": {"type": "hdrfilm", "width": resolution, "height": resolution, "pixel_format": "rgb",
                      "component_format": "float32", "rfilter": {"type": "box"}},
         },
     }
@@ -68,7 +68,7 @@ def scene(name, assets, spp):
     if name == "bunny":
         s["bunny"] = {
             "type": "ply",
-            "filename": os.path.join(assets, "stanford/bunny/bun_zipper.ply"),
+            "filename": mesh or os.path.join(assets, "stanford/bunny/bun_zipper.ply"),
             "face_normals": True,
             "to_world": mi.ScalarTransform4f().scale(7.0).translate([0.0168404, -0.0329874, 0.00153695]),
             "bsdf": diffuse(colours["white"]),
@@ -87,11 +87,19 @@ def main():
     parser.add_argument("--variant", default="llvm_ad_rgb")
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--assets", default=os.environ.get("LUZ_ASSETS", "../shared/assets"))
+    parser.add_argument("--resolution", type=int, default=512, help="image width and height")
+    parser.add_argument("--mesh", help="the bunny scene's mesh file (default: the Stanford bunny)")
+    parser.add_argument("--threads", type=int, help="Dr.Jit worker threads (default: all cores)")
+    parser.add_argument("--whole", action="store_true",
+                        help="no warm-up render: for timing the whole process from outside")
     parser.add_argument("-o", "--output")
     args = parser.parse_args()
     mi.set_variant(args.variant)
-    loaded = mi.load_dict(scene(args.scene, args.assets, args.spp))
-    mi.render(loaded, spp=1)  # warm-up: JIT compilation
+    if args.threads:
+        dr.set_thread_count(args.threads)
+    loaded = mi.load_dict(scene(args.scene, args.assets, args.spp, args.resolution, args.mesh))
+    if not args.whole:
+        mi.render(loaded, spp=1)  # warm-up: JIT compilation
     start = time.perf_counter()
     # spp given again: the warm-up's spp=1 sticks to the sampler otherwise.
     image = mi.render(loaded, seed=0, spp=args.spp)
