@@ -1087,9 +1087,15 @@ pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
     e1.cross(e2).length() <= 1e-6 * e1.length() * e2.length()
 }
 
-/// Drops the degenerate triangles (see [`is_degenerate`]).
+/// Drops the degenerate triangles (see [`is_degenerate`]). Most meshes have
+/// none, so a parallel search comes first and the (serial) removal runs
+/// only when it finds one.
 pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) {
-    indices.retain(|t| !is_degenerate(t.map(|i| positions[i as usize])));
+    use rayon::prelude::*;
+    let degenerate = |t: &[u32; 3]| is_degenerate(t.map(|i| positions[i as usize]));
+    if indices.par_iter().with_min_len(4096).any(degenerate) {
+        indices.retain(|t| !degenerate(t));
+    }
 }
 
 /// Finds the line of the first malformed or out-of-range `v`, `vt` or `f`
