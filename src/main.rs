@@ -384,6 +384,14 @@ fn progress_bar(steps: u64, samples_per_step: u64, quiet: bool) -> ProgressBar {
     bar
 }
 
+/// Reports a stage before the first sample that kept the user waiting
+/// (over half a second: a large mesh), so a long load is not silent.
+fn stage_done(quiet: bool, what: &str, time: Duration) {
+    if !quiet && time >= Duration::from_millis(500) {
+        eprintln!("luz: {what} in {:.1} s", time.as_secs_f64());
+    }
+}
+
 fn render(args: RenderArgs) -> Result<(), Failure> {
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = args.scene.file_stem().unwrap_or("render".as_ref());
@@ -403,7 +411,10 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         )));
     }
     imageio::check_output_path(&checkpoint).map_err(Failure::input)?;
+    let load_start = Instant::now();
     let scene = args.settings.load_scene(&args.scene, args.spp)?;
+    let load_time = load_start.elapsed();
+    stage_done(args.quiet, "loaded the scene", load_time);
     let scene = Arc::new(scene);
     let spp = scene.render.spp;
 
@@ -421,10 +432,14 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
     let build_options = args.settings.build_options();
     let accel = Accel::build(&scene, args.backend, &build_options).map_err(Failure::input)?;
     let build_time = build_start.elapsed();
+    stage_done(args.quiet, "built the tree", build_time);
 
+    let hash_start = Instant::now();
+    let scene_hash = part::scene_hash(&scene);
+    let hash_time = hash_start.elapsed();
     let meta = PartMeta {
         version: env!("CARGO_PKG_VERSION").into(),
-        scene_hash: part::scene_hash(&scene),
+        scene_hash,
         seed: scene.render.seed,
         spp,
         ranges: vec![samples.clone()],
@@ -548,11 +563,13 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
             String::new()
         };
         eprintln!(
-            "{}: {width}x{height}, samples {}..{}{resumed} of {spp} spp, {} backend (built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s{saved} -> {}",
+            "{}: {width}x{height}, samples {}..{}{resumed} of {spp} spp, {} backend (loaded in {:.3} s, hashed in {:.3} s, built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s{saved} -> {}",
             args.scene.display(),
             samples.start,
             samples.end,
             accel.name(),
+            load_time.as_secs_f64(),
+            hash_time.as_secs_f64(),
             build_time.as_secs_f64(),
             rayon::current_num_threads(),
             stats.wall.as_secs_f64(),
