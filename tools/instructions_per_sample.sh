@@ -2,7 +2,9 @@
 # Instructions per sample of a render, counted by callgrind, so that they do
 # not depend on machine load: a 64x64 render on one thread at 16 and at 48
 # spp, and the difference divided by the 32 x 64 x 64 samples between them,
-# which leaves loading and the BVH build out.
+# which leaves loading and the BVH build out. The build quality is pinned
+# to medium: `auto` would pick a different tree for the two runs when the
+# scene has about as many triangles as the runs have samples.
 #
 #   tools/instructions_per_sample.sh SCENE [BACKEND] [BINARY]
 #
@@ -21,7 +23,7 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 instructions() {
     valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.out" "$luz" render "$scene" \
-        --backend "$backend" --threads 1 --spp "$1" --resolution 64x64 --quiet \
+        --backend "$backend" --bvh-quality medium --embree-quality medium --threads 1 --spp "$1" --resolution 64x64 --quiet \
         --checkpoint-every off -o "$work/image.exr" 2>&1 |
         sed -n 's/.*Collected : \([0-9]*\).*/\1/p'
 }
