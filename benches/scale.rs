@@ -6,7 +6,7 @@
 //! build times of luz's summary, and peak RSS.
 //!
 //! ```text
-//! cargo build --release && cargo bench --bench scale -- [--levels 0..=4]
+//! cargo bench --bench scale -- [--levels 0..=4]
 //!     [--resolution 256] [--spp 16] [--threads 2] [--no-mitsuba]
 //! ```
 //!
@@ -263,14 +263,8 @@ fn main() -> ExitCode {
         .map(PathBuf::from)
         .unwrap_or_else(|| root.join("target"));
     let dir = target.join("scale");
-    let luz = target.join("release/luz");
-    if !luz.exists() {
-        eprintln!(
-            "scale: build {} first (cargo build --release)",
-            luz.display()
-        );
-        return ExitCode::FAILURE;
-    }
+    // The binary cargo built with this bench: release under `cargo bench`.
+    let luz = Path::new(env!("CARGO_BIN_EXE_luz"));
     if o.generate {
         meshes(&dir, &bunny, &o.levels);
         return ExitCode::SUCCESS;

@@ -230,28 +230,10 @@ impl Device {
         unsafe {
             rtcSetGeometryBuildQuality(geom.raw, raw_quality(quality));
             if spare {
-                rtcSetSharedGeometryBuffer(
-                    geom.raw,
-                    RTC_BUFFER_TYPE_VERTEX,
-                    0,
-                    RTC_FORMAT_FLOAT3,
-                    positions.as_ptr() as *const c_void,
-                    0,
-                    12,
-                    positions.len(),
-                );
-                self.check("rtcSetSharedGeometryBuffer(vertex)")?;
-                rtcSetSharedGeometryBuffer(
-                    geom.raw,
-                    RTC_BUFFER_TYPE_INDEX,
-                    0,
-                    RTC_FORMAT_UINT3,
-                    indices.as_ptr() as *const c_void,
-                    0,
-                    12,
-                    indices.len(),
-                );
-                self.check("rtcSetSharedGeometryBuffer(index)")?;
+                let vertex = (RTC_BUFFER_TYPE_VERTEX, RTC_FORMAT_FLOAT3);
+                self.share_buffer(&geom, vertex, positions.as_ptr().cast(), positions.len())?;
+                let index = (RTC_BUFFER_TYPE_INDEX, RTC_FORMAT_UINT3);
+                self.share_buffer(&geom, index, indices.as_ptr().cast(), indices.len())?;
             } else {
                 let v = self.new_buffer::<[f32; 3]>(
                     &mut geom,
@@ -274,6 +256,25 @@ impl Device {
         }
         self.check("rtcCommitGeometry(triangles)")?;
         Ok(geom)
+    }
+
+    /// Hands Embree `count` 12-byte items at `data` as `geom`'s buffer of
+    /// `kind` (type and format).
+    ///
+    /// # Safety
+    ///
+    /// `data` holds `count` items (and, for a vertex buffer, 4 readable
+    /// bytes after them) and outlives the geometry.
+    unsafe fn share_buffer(
+        &self,
+        geom: &Geometry,
+        (kind, format): (RTCBufferType, RTCFormat),
+        data: *const c_void,
+        count: usize,
+    ) -> Result<(), String> {
+        // SAFETY: valid geometry; the caller vouches for `data`.
+        unsafe { rtcSetSharedGeometryBuffer(geom.raw, kind, 0, format, data, 0, 12, count) };
+        self.check("rtcSetSharedGeometryBuffer")
     }
 
     /// A buffer of `count` 12-byte items that Embree allocates for `geom`.
