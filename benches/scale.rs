@@ -293,7 +293,7 @@ fn main() -> ExitCode {
         std::fs::write(&scene, scene_for(&mesh, &o)).expect("write the scene");
         let mut tools: Vec<(&str, Command)> = Vec::new();
         for backend in ["rust", "embree"] {
-            let mut cmd = Command::new(&luz);
+            let mut cmd = Command::new(luz);
             cmd.arg("render").arg(&scene).args(["--backend", backend]);
             cmd.args(["--threads", &o.threads.to_string()]);
             cmd.arg("-o")
