@@ -221,11 +221,8 @@ pub struct NativeBackend {
 }
 
 impl NativeBackend {
-    /// The trees over `shapes`, less those `in_root` (which `Accel` tests).
-    pub fn new(shapes: &[Shape], in_root: &[bool]) -> Self {
-        Self::with_quality(shapes, in_root, BuildQuality::Medium)
-    }
-
+    /// The trees over `shapes`, less those `in_root` (which `Accel` tests),
+    /// built at `quality`.
     pub fn with_quality(shapes: &[Shape], in_root: &[bool], quality: BuildQuality) -> Self {
         let mut meshes = Triangles::default();
         let mut boxes = Vec::new();

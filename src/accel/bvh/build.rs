@@ -12,7 +12,7 @@
 //! Binning is parallel too (per chunk, then merged) where a node is large,
 //! so the first splits, which see every primitive, use every thread.
 
-use super::{Preset, MAX_DEPTH, PARALLEL_THRESHOLD};
+use super::{usable, Preset, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::Aabb;
 use glam::Vec4;
 use rayon::prelude::*;
@@ -390,7 +390,7 @@ pub(super) fn prim_refs(count: usize, box_of: impl Fn(usize) -> Aabb + Sync) -> 
         .with_min_len(PARALLEL_THRESHOLD)
         .filter_map(|i| {
             let b = box_of(i);
-            (b.is_finite() && !b.is_empty()).then(|| PrimRef::new(&b, i as u32))
+            usable(&b).then(|| PrimRef::new(&b, i as u32))
         })
         .collect()
 }

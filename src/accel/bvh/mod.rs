@@ -75,6 +75,7 @@ struct Preset {
 impl BuildQuality {
     fn preset(self) -> Preset {
         match self {
+            // The Morton build reads only `max_leaf`.
             BuildQuality::Low => Preset {
                 bins: 8,
                 max_leaf: 8,
@@ -121,6 +122,12 @@ impl Default for BuildSettings {
     }
 }
 
+/// Whether a primitive's box can be hit: finite (no NaN) and not empty.
+/// The others get no slot.
+fn usable(b: &Aabb) -> bool {
+    b.is_finite() && !b.is_empty()
+}
+
 /// `primitive_indices` entry of a padding slot.
 pub const PADDING: u32 = u32::MAX;
 
@@ -155,7 +162,8 @@ impl Bvh {
     }
 
     /// As `build_with`, over the boxes `box_of(0..count)`, which it asks
-    /// for once each (in parallel), so the caller need not store them.
+    /// for in parallel (once each for the SAH builds, three times for the
+    /// Morton build), so the caller need not store them.
     pub fn build_over(
         count: usize,
         box_of: impl Fn(usize) -> Aabb + Sync,

@@ -9,7 +9,7 @@
 //! collapsed, padded and traversed by the same code.
 
 use super::build::BuildNode;
-use super::{MAX_DEPTH, PARALLEL_THRESHOLD};
+use super::{usable, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::{Aabb, Vec3};
 use rayon::prelude::*;
 
@@ -30,10 +30,7 @@ pub(super) fn build(
     max_leaf: usize,
     align: usize,
 ) -> (BuildNode, Vec<u32>) {
-    let valid = |i: usize| {
-        let b = box_of(i);
-        (b.is_finite() && !b.is_empty()).then_some(b)
-    };
+    let valid = |i: usize| Some(box_of(i)).filter(usable);
     let centroids = (0..count)
         .into_par_iter()
         .with_min_len(PARALLEL_THRESHOLD)
