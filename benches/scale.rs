@@ -180,7 +180,7 @@ fn measure(mut cmd: Command) -> Result<Run, String> {
 fn same_image(a: &Path, b: &Path) -> Result<f64, String> {
     const BLOCK: u32 = 8;
     const LIMIT: f64 = 4.5;
-    let read = |p: &Path| luz::render::part::read(p).map_err(|e| e.to_string());
+    let read = |p: &Path| luz::distributed::part::read(p).map_err(|e| e.to_string());
     let (a, b) = (read(a)?.film, read(b)?.film);
     if (a.width, a.height) != (b.width, b.height) {
         return Err("the images differ in size".into());

@@ -3,6 +3,8 @@
 //! feeding one Monte Carlo integrator.
 
 pub mod accel;
+pub mod distributed;
+pub mod echo;
 pub mod geometry;
 pub mod image;
 mod location;

@@ -4,13 +4,13 @@
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
 use luz::accel::{Accel, Backend as _, BackendKind, BuildOptions, Quality};
+use luz::distributed::merge::merge;
+use luz::distributed::part::{self, PartMeta};
+use luz::distributed::passes::{render_passes, Outcome};
+use luz::distributed::task::{self, Task};
 use luz::image::io::{self as imageio, WriteOptions};
 use luz::image::metrics;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
-use luz::render::merge::merge;
-use luz::render::part::{self, PartMeta};
-use luz::render::passes::{render_passes, Outcome};
-use luz::render::task::{self, Task};
 use luz::render::{Film, Progress, RenderOptions};
 use luz::scene::Scene;
 use luz::study::{ReferenceSource, Study, StudyOptions, Vary};
@@ -295,9 +295,7 @@ fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
     let bad = || format!("expected WIDTHxHEIGHT such as 512x512, found `{s}`");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let (w, h): (u32, u32) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
-    if w == 0 || h == 0 || w > 1 << 15 || h > 1 << 15 {
-        return Err(format!("resolution {w}x{h} is outside 1..=32768 per side"));
-    }
+    luz::render::film::check_resolution(w, h)?;
     Ok((w, h))
 }
 

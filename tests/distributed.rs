@@ -6,7 +6,7 @@ mod common;
 
 use common::temp_dir;
 
-use luz::render::part::{self, Part};
+use luz::distributed::part::{self, Part};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};

@@ -5,6 +5,22 @@
 use crate::image::Image;
 use crate::math::{Rgb, Vec3};
 
+/// The largest width and height luz renders, loads, writes and merges. One
+/// limit everywhere, so nothing is rendered that a later merge refuses.
+pub const MAX_RESOLUTION: u32 = 1 << 15;
+
+/// Refuses a resolution with a side of 0 or above [`MAX_RESOLUTION`].
+pub fn check_resolution(width: u32, height: u32) -> Result<(), String> {
+    let side = 1..=MAX_RESOLUTION;
+    if side.contains(&width) && side.contains(&height) {
+        Ok(())
+    } else {
+        Err(format!(
+            "resolution {width}x{height} is outside 1..={MAX_RESOLUTION} per side"
+        ))
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     pub width: u32,
@@ -46,7 +62,7 @@ impl Film {
     }
 
     /// An empty film, or an error saying how much memory it needed when the
-    /// allocation fails: a scene may ask for 65536×65536 pixels (200 GB of
+    /// allocation fails: a scene may ask for 32768×32768 pixels (51 GB of
     /// sums), which must end in a message, not an abort.
     pub fn try_new(width: u32, height: u32) -> Result<Self, String> {
         let n = width as usize * height as usize;

@@ -5,11 +5,6 @@
 
 pub mod film;
 pub mod integrator;
-pub mod merge;
-pub mod part;
-pub mod passes;
-mod scene_hash;
-pub mod task;
 
 pub use film::{Film, PixelSum};
 pub use integrator::{Integrator, IntegratorSettings, RayCounts};

@@ -8,6 +8,7 @@ use super::{Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture,
 use crate::geometry::{Cuboid, Geometry, Mesh, Plane, Quad, Sphere};
 use crate::location::line_column;
 use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
+use crate::render::film::check_resolution;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::ops::Range;
@@ -469,13 +470,8 @@ impl Ctx<'_> {
             ));
         }
         let [width, height] = cd.resolution.unwrap_or([512, 512]);
-        if width == 0 || height == 0 || width > 1 << 16 || height > 1 << 16 {
-            return Err(self.field_error(
-                &span,
-                "resolution",
-                format!("must be between 1 and 65536 in each axis, got {width}x{height}"),
-            ));
-        }
+        check_resolution(width, height)
+            .map_err(|message| self.field_error(&span, "resolution", message))?;
         Ok(Camera {
             eye,
             target,

@@ -3,7 +3,7 @@
 //! render loop). Everything that would make the sum wrong is refused.
 
 use super::part::{self, format_ranges, Part, PartMeta};
-use super::Film;
+use crate::render::Film;
 use std::ops::Range;
 use std::path::PathBuf;
 

@@ -5,6 +5,7 @@
 //! run under a 1 GiB address-space limit, so a reader that allocated for the
 //! header's count before the data is there aborts instead of passing.
 
+#[path = "../common/mod.rs"]
 mod common;
 
 use common::temp_dir;

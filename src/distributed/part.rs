@@ -28,9 +28,10 @@
 //! The resolution is the EXR data window.
 
 pub use super::scene_hash::scene_hash;
-use super::Film;
 use crate::image::io::write_atomic;
 use crate::image::ImageError;
+use crate::render::film::check_resolution;
+use crate::render::Film;
 use exr::prelude::{
     AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image as ExrImage, Layer,
     LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text, WritableImage,
@@ -266,12 +267,7 @@ pub fn read(path: &Path) -> Result<Part, PartError> {
     let non_finite = number(NON_FINITE)?;
 
     let (width, height) = (layer.size.width(), layer.size.height());
-    if width == 0 || height == 0 || width > 1 << 15 || height > 1 << 15 {
-        return Err(invalid(
-            "dataWindow",
-            format!("resolution {width}x{height} is outside 1..=32768 per side"),
-        ));
-    }
+    check_resolution(width as u32, height as u32).map_err(|m| invalid("dataWindow", m))?;
     let n = width * height;
     let channel = |name: &str| -> Result<&Vec<u32>, PartError> {
         let found = layer.channel_data.list.iter().find(|c| c.name == *name);

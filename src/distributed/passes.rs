@@ -1,11 +1,11 @@
 //! Rendering a sample range in passes of whole samples per pixel, so that
 //! between passes the film can be saved (a checkpoint) or the render stopped
 //! cleanly. Passes continue each pixel's running sums (see
-//! [`render_into`](super::render_into)), so the image does not depend on how
+//! [`render_into`](crate::render::render_into)), so the image does not depend on how
 //! the range is cut into passes.
 
-use super::{render_into_with, Film, Progress, RenderOptions, RenderStats};
 use crate::accel::Accel;
+use crate::render::{render_into_with, Film, Progress, RenderOptions, RenderStats};
 use crate::scene::Scene;
 use std::time::{Duration, Instant};
 
