@@ -7,6 +7,7 @@ pub mod distributed;
 pub mod echo;
 pub mod geometry;
 pub mod image;
+pub mod job;
 mod location;
 pub mod math;
 mod names;

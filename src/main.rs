@@ -3,23 +3,24 @@
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressState, ProgressStyle};
-use luz::accel::{Accel, Backend as _, BackendKind, BuildOptions, Quality};
-use luz::distributed::merge::merge;
-use luz::distributed::part::{self, PartMeta};
-use luz::distributed::passes::{render_passes, Outcome};
-use luz::distributed::task::{self, Task};
+use luz::accel::{BackendKind, BuildOptions, Quality};
+use luz::distributed::part;
+use luz::distributed::task::Task;
 use luz::image::io::{self as imageio, WriteOptions};
 use luz::image::metrics;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
-use luz::render::{Film, Progress, RenderOptions};
+use luz::job::{
+    self, signals, JobError, JobReport, Observer, Overrides, RenderJob, SampleChoice, Stage,
+    WriteError,
+};
+use luz::render::Progress;
 use luz::scene::Scene;
 use luz::study::{ReferenceSource, Study, StudyOptions, Vary};
 use std::io::IsTerminal;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Mutex, OnceLock};
 use std::time::{Duration, Instant};
 
 #[derive(Parser)]
@@ -46,13 +47,13 @@ enum Command {
         /// The reference.
         b: PathBuf,
         /// Absolute tolerance of a value that counts as agreeing.
-        #[arg(long, default_value_t = 0.0)]
+        #[arg(long, default_value_t = 0.0, value_parser = parse_non_negative)]
         abs_tol: f64,
         /// Relative tolerance (of the reference) of a value that counts as agreeing.
-        #[arg(long, default_value_t = 1e-3)]
+        #[arg(long, default_value_t = 1e-3, value_parser = parse_non_negative)]
         rel_tol: f64,
         /// Exit with status 1 when the RMSE exceeds this.
-        #[arg(long)]
+        #[arg(long, value_parser = parse_non_negative)]
         fail_above: Option<f64>,
     },
     /// Merge renders of disjoint sample ranges of one scene (EXR files that
@@ -134,7 +135,12 @@ fn parse_interval(s: &str) -> Result<Interval, String> {
     if s == "off" {
         return Ok(Interval(None));
     }
-    let bad = || format!("expected a duration such as 500ms, 30s, 5m, 1h or off, found `{s}`");
+    let bad = || {
+        format!(
+            "expected a duration such as 500ms, 30s, 5m, 1h or off, found {}",
+            luz::echo::echo(s)
+        )
+    };
     let split = s.find(|c: char| c.is_ascii_alphabetic()).ok_or_else(bad)?;
     let value: f64 = s[..split].parse().map_err(|_| bad())?;
     let unit = match &s[split..] {
@@ -203,9 +209,9 @@ struct SettingsArgs {
     /// Russian roulette over the lobes: on or off.
     #[arg(long, value_parser = parse_on_off)]
     russian_roulette: Option<bool>,
-    /// Worker threads (default: all cores).
-    #[arg(long)]
-    threads: Option<usize>,
+    /// Worker threads (default: all cores; at most 4096).
+    #[arg(long, value_parser = clap::value_parser!(u16).range(1..=4096))]
+    threads: Option<u16>,
     /// Image size as WIDTHxHEIGHT, overriding the scene's.
     #[arg(long, value_parser = parse_resolution)]
     resolution: Option<(u32, u32)>,
@@ -232,26 +238,27 @@ impl SettingsArgs {
         }
     }
 
-    /// Sets the worker threads, then loads the scene with these overrides
-    /// (and `spp`'s).
-    fn load_scene(&self, path: &Path, spp: Option<u32>) -> Result<Scene, Failure> {
+    fn overrides(&self, spp: Option<u32>) -> Overrides {
+        Overrides {
+            spp,
+            max_depth: self.max_depth,
+            seed: self.seed,
+            russian_roulette: self.russian_roulette,
+            resolution: self.resolution,
+        }
+    }
+
+    /// Starts the worker threads `--threads` asks for.
+    fn start_threads(&self) -> Result<(), Failure> {
         if let Some(n) = self.threads {
             rayon::ThreadPoolBuilder::new()
-                .num_threads(n)
+                .num_threads(n.into())
                 .build_global()
-                .map_err(Failure::other)?;
+                .map_err(|e| {
+                    Failure::input(format!("--threads {n}: cannot start the threads: {e}"))
+                })?;
         }
-        let mut scene = luz::scene::load(path).map_err(Failure::input)?;
-        if let Some((w, h)) = self.resolution {
-            scene.camera.width = w;
-            scene.camera.height = h;
-        }
-        let settings = &mut scene.render;
-        settings.spp = spp.unwrap_or(settings.spp);
-        settings.max_depth = self.max_depth.unwrap_or(settings.max_depth);
-        settings.seed = self.seed.unwrap_or(settings.seed);
-        settings.russian_roulette = self.russian_roulette.unwrap_or(settings.russian_roulette);
-        Ok(scene)
+        Ok(())
     }
 }
 
@@ -262,10 +269,10 @@ struct ToneMapArgs {
     #[arg(long, visible_alias = "op", default_value = "clamp-gamma")]
     tonemap: ToneMap,
     /// Gamma of the gamma operators.
-    #[arg(long, default_value_t = 2.2)]
+    #[arg(long, default_value_t = 2.2, value_parser = parse_positive::<f32>)]
     gamma: f32,
     /// Exposure in stops: radiance is scaled by 2^EXPOSURE before tone mapping.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true, value_parser = parse_finite::<f32>)]
     exposure: f32,
 }
 
@@ -283,16 +290,54 @@ impl ToneMapArgs {
     }
 }
 
+/// A finite number.
+fn parse_finite<T: std::str::FromStr + Into<f64> + Copy>(s: &str) -> Result<T, String> {
+    match s.trim().parse::<T>() {
+        Ok(v) if v.into().is_finite() => Ok(v),
+        _ => Err(format!(
+            "expected a finite number, found {}",
+            luz::echo::echo(s)
+        )),
+    }
+}
+
+/// A finite number above zero.
+fn parse_positive<T: std::str::FromStr + Into<f64> + Copy>(s: &str) -> Result<T, String> {
+    match parse_finite::<T>(s) {
+        Ok(v) if v.into() > 0.0 => Ok(v),
+        _ => Err(format!(
+            "expected a finite number above 0, found {}",
+            luz::echo::echo(s)
+        )),
+    }
+}
+
+/// A finite number, zero or above.
+fn parse_non_negative(s: &str) -> Result<f64, String> {
+    match parse_finite::<f64>(s) {
+        Ok(v) if v >= 0.0 => Ok(v),
+        _ => Err(format!(
+            "expected a finite number of 0 or more, found {}",
+            luz::echo::echo(s)
+        )),
+    }
+}
+
 fn parse_on_off(s: &str) -> Result<bool, String> {
     match s {
         "on" | "true" => Ok(true),
         "off" | "false" => Ok(false),
-        _ => Err(format!("expected on or off, found `{s}`")),
+        _ => Err(format!("expected on or off, found {}", luz::echo::echo(s))),
     }
 }
 
 fn parse_resolution(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("expected WIDTHxHEIGHT such as 512x512, found `{s}`");
+    let bad = || {
+        format!(
+            "expected WIDTHxHEIGHT such as 512x512, found {}",
+            luz::echo::echo(s)
+        )
+    };
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(bad)?;
     let (w, h): (u32, u32) = (w.parse().map_err(|_| bad())?, h.parse().map_err(|_| bad())?);
     luz::render::film::check_resolution(w, h)?;
@@ -320,6 +365,13 @@ impl Failure {
             message: e.to_string(),
         }
     }
+
+    fn job(e: JobError) -> Self {
+        Self {
+            status: e.exit_status(),
+            message: e.to_string(),
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -330,7 +382,7 @@ fn main() -> ExitCode {
             input,
             output,
             tonemap,
-        } => tonemap_file(&input, &output, &tonemap),
+        } => job::tonemap_file(&input, &output, &tonemap.write_options()).map_err(Failure::job),
         Command::Compare {
             a,
             b,
@@ -382,302 +434,174 @@ fn progress_bar(steps: u64, samples_per_step: u64, quiet: bool) -> ProgressBar {
     bar
 }
 
-/// Reports a stage before the first sample that kept the user waiting
-/// (over half a second: a large mesh), so a long load is not silent.
-fn stage_done(quiet: bool, what: &str, time: Duration) {
-    if !quiet && time >= Duration::from_millis(500) {
-        eprintln!("luz: {what} in {:.1} s", time.as_secs_f64());
+/// Shows a render's progress: stages that kept the user waiting (over half
+/// a second: a large mesh), the task, a bar on a terminal, and elsewhere (a
+/// batch job's log) a line with the ETA every [`LOG_EVERY`], so nobody
+/// waits in the dark.
+struct RenderObserver {
+    quiet: bool,
+    bar: OnceLock<ProgressBar>,
+    last_line: Mutex<Instant>,
+}
+
+/// How often a render that is not on a terminal logs its progress.
+const LOG_EVERY: Duration = Duration::from_secs(60);
+
+impl RenderObserver {
+    fn new(quiet: bool) -> Self {
+        Self {
+            quiet,
+            bar: OnceLock::new(),
+            last_line: Mutex::new(Instant::now()),
+        }
+    }
+
+    fn finish(&self) {
+        if let Some(bar) = self.bar.get() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+impl Progress for RenderObserver {
+    fn row_done(&self, samples: u32) {
+        let Some(bar) = self.bar.get() else { return };
+        bar.inc(samples as u64);
+        // Quiet, or on a terminal, which draws the bar.
+        if self.quiet || !bar.is_hidden() {
+            return;
+        }
+        let Ok(mut last) = self.last_line.try_lock() else {
+            return;
+        };
+        if last.elapsed() >= LOG_EVERY {
+            *last = Instant::now();
+            let done = bar.position() as f64 / bar.length().unwrap_or(1).max(1) as f64;
+            eprintln!(
+                "luz: {:.1}% done after {}, ETA {}",
+                100.0 * done,
+                indicatif::HumanDuration(bar.elapsed()),
+                indicatif::HumanDuration(bar.eta())
+            );
+        }
+    }
+}
+
+impl Observer for RenderObserver {
+    fn stage_done(&self, stage: Stage, time: Duration) {
+        let what = match stage {
+            Stage::Loaded => "loaded the scene",
+            Stage::Built => "built the tree",
+        };
+        if !self.quiet && time >= Duration::from_millis(500) {
+            eprintln!("luz: {what} in {:.1} s", time.as_secs_f64());
+        }
+    }
+
+    fn task_chosen(&self, task: &Task, samples: &Range<u32>) {
+        if !self.quiet {
+            eprintln!(
+                "luz: task {} of {} ({}): samples {}..{}",
+                task.index, task.count, task.source, samples.start, samples.end
+            );
+        }
+    }
+
+    fn rendering(&self, steps: u64, samples_per_step: u64) {
+        let bar = progress_bar(steps, samples_per_step, self.quiet);
+        *self.last_line.lock().expect("no panics while held") = Instant::now();
+        let _ = self.bar.set(bar);
+    }
+
+    fn checkpoint_failed(&self, error: &WriteError) {
+        eprintln!("luz: warning: cannot write the checkpoint, rendering on: {error}");
     }
 }
 
 fn render(args: RenderArgs) -> Result<(), Failure> {
-    let output = args.output.clone().unwrap_or_else(|| {
-        let stem = args.scene.file_stem().unwrap_or("render".as_ref());
-        PathBuf::from(stem).with_extension("png")
-    });
-    // Refuse an output we cannot write before spending time on the render.
-    imageio::check_output_path(&output).map_err(Failure::input)?;
-    let checkpoint = args
-        .checkpoint
-        .clone()
-        .or_else(|| args.resume.clone())
-        .unwrap_or_else(|| output.with_extension("checkpoint.exr"));
-    if !is_exr(&checkpoint) || checkpoint == output {
-        return Err(Failure::input(format!(
-            "{}: --checkpoint must name an .exr file other than the output",
-            checkpoint.display()
-        )));
-    }
-    imageio::check_output_path(&checkpoint).map_err(Failure::input)?;
-    let load_start = Instant::now();
-    let scene = args.settings.load_scene(&args.scene, args.spp)?;
-    let load_time = load_start.elapsed();
-    stage_done(args.quiet, "loaded the scene", load_time);
-    let scene = Arc::new(scene);
-    let spp = scene.render.spp;
-
-    let samples = sample_range(&args, spp)?;
-    if samples != (0..spp) && !is_exr(&output) {
-        return Err(Failure::input(format!(
-            "{}: a render of samples {}..{} must be written to .exr, which keeps what `luz merge` needs",
-            output.display(),
-            samples.start,
-            samples.end
-        )));
-    }
-
-    let build_start = Instant::now();
-    let build_options = args.settings.build_options();
-    let accel = Accel::build(&scene, args.backend, &build_options).map_err(Failure::input)?;
-    let build_time = build_start.elapsed();
-    stage_done(args.quiet, "built the tree", build_time);
-
-    let hash_start = Instant::now();
-    let scene_hash = part::scene_hash(&scene);
-    let hash_time = hash_start.elapsed();
-    let meta = PartMeta {
-        version: env!("CARGO_PKG_VERSION").into(),
-        scene_hash,
-        seed: scene.render.seed,
-        spp,
-        ranges: vec![samples.clone()],
-        backend: accel.name().into(),
-    };
-    let (width, height) = (scene.camera.width, scene.camera.height);
-    let mut film = match &args.resume {
-        Some(path) => resumed_film(path, &meta, (width, height))?,
-        None => Film::try_new(width, height)
-            .map_err(|e| Failure::input(format!("{}: resolution: {e}", args.scene.display())))?,
-    };
-    let resumed_samples = film.samples;
-
-    // The first SIGINT or SIGTERM stops the render after the pass in flight;
-    // a second one ends the process at once, for a user who cannot wait.
-    let signal = Arc::new(AtomicUsize::new(0));
-    let signalled = Arc::new(AtomicBool::new(false));
-    for sig in [signal_hook::consts::SIGINT, signal_hook::consts::SIGTERM] {
-        use signal_hook::flag;
-        flag::register_conditional_shutdown(sig, 128 + sig, Arc::clone(&signalled))
-            .and_then(|_| flag::register(sig, Arc::clone(&signalled)))
-            .and_then(|_| flag::register_usize(sig, Arc::clone(&signal), sig as usize))
-            .map_err(Failure::other)?;
-    }
-
-    let options = RenderOptions {
-        samples: samples.clone(),
-        ..RenderOptions::from_scene(&scene)
-    };
-    let remaining = samples.len() as u64 - film.samples;
-    let bar = progress_bar(height as u64 * remaining, width as u64, args.quiet);
-    // Passes short enough that a signal is answered within a second or so,
-    // and that checkpoints come about when asked.
-    let pass_time = args
-        .checkpoint_every
-        .0
-        .map_or(Duration::from_secs(1), |every| {
-            every.min(Duration::from_secs(1))
-        });
-    let mut last_checkpoint = Instant::now();
-    let mut checkpoints = (0u32, Duration::ZERO);
-    let (outcome, stats) = render_passes(
-        &scene,
-        &accel,
-        &options,
-        &mut film,
-        &Bar(bar.clone()),
-        pass_time,
-        || signal.load(Ordering::Relaxed) != 0,
-        |film| {
-            match args.checkpoint_every.0 {
-                Some(every) if last_checkpoint.elapsed() >= every => {}
-                _ => return Ok(()),
-            }
-            let start = Instant::now();
-            write_part(&checkpoint, &meta, film)?;
-            checkpoints.0 += 1;
-            checkpoints.1 += start.elapsed();
-            last_checkpoint = Instant::now();
-            Ok::<_, Failure>(())
-        },
-    )?;
-    bar.finish_and_clear();
-
-    if outcome == Outcome::Stopped {
-        let signal = signal.load(Ordering::Relaxed);
-        let name = if signal == signal_hook::consts::SIGINT as usize {
-            "SIGINT"
-        } else {
-            "SIGTERM"
-        };
-        if film.samples == 0 {
-            return Err(Failure {
-                status: 128 + signal as u8,
-                message: format!(
-                    "interrupted by {name} before any sample was done; nothing written"
-                ),
-            });
-        }
-        write_part(&checkpoint, &meta, &film)?;
-        write_output(&output, &held(&meta, &film), &film, &args.tonemap)?;
-        return Err(Failure {
-            status: 128 + signal as u8,
-            message: format!(
-                "interrupted by {name} after {} of {} samples per pixel; wrote the checkpoint {} and the partial image {}; resume with: {}",
-                film.samples,
-                samples.len(),
-                checkpoint.display(),
-                output.display(),
-                resume_command(&checkpoint)
-            ),
-        });
-    }
-
-    write_output(&output, &held(&meta, &film), &film, &args.tonemap)?;
-    // The output holds everything now; a checkpoint left behind would only
-    // mislead a later --resume.
-    if checkpoint.exists() {
-        std::fs::remove_file(&checkpoint)
-            .map_err(|e| Failure::other(format!("{}: cannot remove: {e}", checkpoint.display())))?;
-    }
-    if film.non_finite > 0 {
-        eprintln!(
-            "luz: warning: {} samples were not finite and were left out",
-            film.non_finite
-        );
-    }
-    if !args.quiet {
-        let resumed = if resumed_samples > 0 {
-            format!(" (resumed at {resumed_samples})")
-        } else {
-            String::new()
-        };
-        let saved = if checkpoints.0 > 0 {
-            format!(
-                ", {} checkpoints in {:.3} s",
-                checkpoints.0,
-                checkpoints.1.as_secs_f64()
-            )
-        } else {
-            String::new()
-        };
-        eprintln!(
-            "{}: {width}x{height}, samples {}..{}{resumed} of {spp} spp, {} backend (loaded in {:.3} s, hashed in {:.3} s, built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s{saved} -> {}",
-            args.scene.display(),
-            samples.start,
-            samples.end,
-            accel.name(),
-            load_time.as_secs_f64(),
-            hash_time.as_secs_f64(),
-            build_time.as_secs_f64(),
-            rayon::current_num_threads(),
-            stats.wall.as_secs_f64(),
-            stats.msamples_per_s(),
-            stats.mrays_per_s(),
-            output.display()
-        );
-    }
-    Ok(())
-}
-
-fn is_exr(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
-}
-
-/// The samples to render: --samples, else the task's share of `0..spp`
-/// (--task-index, else the batch system's), else all of them.
-fn sample_range(args: &RenderArgs, spp: u32) -> Result<Range<u32>, Failure> {
-    if let Some(samples) = &args.samples {
-        return Ok(samples.clone());
-    }
-    let task = match (args.task_index, args.task_count) {
-        (Some(index), Some(count)) => Some(Task {
+    args.settings.start_threads()?;
+    let samples = match (args.samples.clone(), args.task_index, args.task_count) {
+        (Some(range), _, _) => SampleChoice::Range(range),
+        (None, Some(index), Some(count)) => SampleChoice::Task(Task {
             index,
             count,
             source: "--task-index",
         }),
-        (_, count) => {
-            task::from_env(|name| std::env::var(name).ok(), count).map_err(Failure::input)?
-        }
+        (None, _, count) => SampleChoice::BatchSystem { count },
     };
-    match task {
-        Some(task) => {
-            let range = task.range(spp).map_err(Failure::input)?;
-            if !args.quiet {
-                eprintln!(
-                    "luz: task {} of {} ({}): samples {}..{} of {spp}",
-                    task.index, task.count, task.source, range.start, range.end
-                );
-            }
-            Ok(range)
-        }
-        None if args.task_count.is_some() => Err(Failure::input(
-            "--task-count needs --task-index, SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX",
-        )),
-        None => Ok(0..spp),
-    }
-}
-
-/// The film of a checkpoint, if it is of this very render.
-fn resumed_film(path: &Path, meta: &PartMeta, resolution: (u32, u32)) -> Result<Film, Failure> {
-    let saved = part::read(path).map_err(Failure::input)?;
-    let refuse = |field: &str, message: String| {
-        Failure::input(format!("{}: {field}: {message}", path.display()))
+    let job = RenderJob {
+        scene: args.scene.clone(),
+        output: args.output.clone(),
+        backend: args.backend,
+        build: args.settings.build_options(),
+        overrides: args.settings.overrides(args.spp),
+        samples,
+        checkpoint: args.checkpoint.clone(),
+        checkpoint_every: args.checkpoint_every.0,
+        resume: args.resume.clone(),
+        write: args.tonemap.write_options(),
     };
-    let (ours, theirs) = (meta, &saved.meta);
-    let saved_resolution = (saved.film.width, saved.film.height);
-    if let Some(m) = part::first_mismatch((ours, resolution), (theirs, saved_resolution)) {
-        return Err(refuse(
-            m.attribute,
-            format!(
-                "the checkpoint has {}, this render {}: it is not of this render",
-                m.theirs, m.ours
-            ),
-        ));
+    let signals = signals::install().map_err(Failure::other)?;
+    let observer = RenderObserver::new(args.quiet);
+    let result = job.run(&observer, signals);
+    observer.finish();
+    let report = result.map_err(|e| match &e {
+        JobError::Interrupted {
+            saved: Some((checkpoint, _)),
+            ..
+        } => Failure {
+            status: e.exit_status(),
+            message: format!("{e}; resume with: {}", resume_command(checkpoint)),
+        },
+        _ => Failure::job(e),
+    })?;
+    if report.non_finite > 0 {
+        eprintln!(
+            "luz: warning: {} samples were not finite and were left out",
+            report.non_finite
+        );
     }
-    let want = &ours.ranges[0];
-    match theirs.ranges.as_slice() {
-        [held] if held.start == want.start && held.end <= want.end => Ok(saved.film),
-        _ => Err(refuse(
-            "luz:samples",
-            format!(
-                "the checkpoint holds samples {}, which do not start this render's {}..{}",
-                part::format_ranges(&theirs.ranges),
-                want.start,
-                want.end
-            ),
-        )),
+    if !args.quiet {
+        eprintln!("{}: {}", args.scene.display(), summary(&report));
     }
+    Ok(())
 }
 
-/// `meta` for a film holding the first `film.samples` of the samples `meta`
-/// was made for.
-fn held(meta: &PartMeta, film: &Film) -> PartMeta {
-    let start = meta.ranges[0].start;
-    let range = start..start + film.samples as u32;
-    PartMeta {
-        ranges: vec![range],
-        ..meta.clone()
-    }
-}
-
-fn write_part(path: &Path, meta: &PartMeta, film: &Film) -> Result<(), Failure> {
-    part::write(path, &held(meta, film), film).map_err(Failure::other)
-}
-
-/// Writes `film` to `path`: a part (`meta` says what it holds) when `path`
-/// is an EXR, else the tone mapped image.
-fn write_output(
-    path: &Path,
-    meta: &PartMeta,
-    film: &Film,
-    tonemap: &ToneMapArgs,
-) -> Result<(), Failure> {
-    if is_exr(path) {
-        part::write(path, meta, film).map_err(Failure::other)
+/// The render's summary line (after the scene's name).
+fn summary(r: &JobReport) -> String {
+    let resumed = if r.resumed_at > 0 {
+        format!(" (resumed at {})", r.resumed_at)
     } else {
-        imageio::write(path, &film.image(), &tonemap.write_options()).map_err(Failure::other)
+        String::new()
+    };
+    let mut saved = String::new();
+    if r.checkpoints > 0 {
+        saved = format!(
+            ", {} checkpoints in {:.3} s",
+            r.checkpoints,
+            r.checkpoint_time.as_secs_f64()
+        );
     }
+    if r.checkpoint_failures > 0 {
+        saved.push_str(&format!(", {} checkpoints failed", r.checkpoint_failures));
+    }
+    let (width, height) = r.resolution;
+    let stats = &r.stats;
+    format!(
+        "{width}x{height}, samples {}..{}{resumed} of {} spp, {} backend (loaded in {:.3} s, hashed in {:.3} s, built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s{saved} -> {}",
+        r.samples.start,
+        r.samples.end,
+        r.spp,
+        r.backend,
+        r.load_time.as_secs_f64(),
+        r.hash_time.as_secs_f64(),
+        r.build_time.as_secs_f64(),
+        rayon::current_num_threads(),
+        stats.wall.as_secs_f64(),
+        stats.msamples_per_s(),
+        stats.mrays_per_s(),
+        r.output.display()
+    )
 }
 
 /// This process's command line with `--resume CHECKPOINT` in place of any
@@ -708,13 +632,9 @@ fn resume_command(checkpoint: &Path) -> String {
 }
 
 fn merge_parts(args: &MergeArgs) -> Result<(), Failure> {
-    imageio::check_output_path(&args.output).map_err(Failure::input)?;
-    let mut parts = Vec::new();
-    for path in &args.parts {
-        parts.push((path.clone(), part::read(path).map_err(Failure::input)?));
-    }
-    let count = parts.len();
-    let merged = merge(parts, args.allow_gaps).map_err(Failure::input)?;
+    let write = args.tonemap.write_options();
+    let merged = job::merge_files(&args.parts, &args.output, args.allow_gaps, &write)
+        .map_err(Failure::job)?;
     let (meta, film) = (&merged.part.meta, &merged.part.film);
     if !merged.missing.is_empty() {
         eprintln!(
@@ -724,10 +644,10 @@ fn merge_parts(args: &MergeArgs) -> Result<(), Failure> {
             film.samples
         );
     }
-    write_output(&args.output, meta, film, &args.tonemap)?;
     if !args.quiet {
         eprintln!(
-            "merged {count} parts: samples {} ({} per pixel), {}x{} -> {}",
+            "merged {} parts: samples {} ({} per pixel), {}x{} -> {}",
+            args.parts.len(),
             part::format_ranges(&meta.ranges),
             film.samples,
             film.width,
@@ -739,7 +659,12 @@ fn merge_parts(args: &MergeArgs) -> Result<(), Failure> {
 }
 
 fn study(args: StudyArgs) -> Result<(), Failure> {
-    let scene = args.settings.load_scene(&args.scene, None)?;
+    args.settings.start_threads()?;
+    let scene: Scene = args
+        .settings
+        .overrides(None)
+        .load(&args.scene)
+        .map_err(Failure::input)?;
     let width = scene.camera.width;
     let reference = match args.reference {
         Some(path) => ReferenceSource::File(path),
@@ -789,12 +714,6 @@ fn study(args: StudyArgs) -> Result<(), Failure> {
         );
     }
     Ok(())
-}
-
-fn tonemap_file(input: &Path, output: &Path, args: &ToneMapArgs) -> Result<(), Failure> {
-    imageio::check_output_path(output).map_err(Failure::input)?;
-    let image = imageio::read(input).map_err(Failure::input)?;
-    imageio::write(output, &image, &args.write_options()).map_err(Failure::other)
 }
 
 fn compare(

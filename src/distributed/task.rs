@@ -3,7 +3,34 @@
 //! again. The task comes from the command line or from the batch system's
 //! environment (Slurm job arrays, Kubernetes Indexed Jobs).
 
+use crate::echo::echo;
 use std::ops::Range;
+
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum TaskError {
+    #[error("{from}: the task count must be at least 1")]
+    NoTasks { from: &'static str },
+    #[error("{from}: task index {index} is not below the task count {count}")]
+    IndexNotBelowCount {
+        from: &'static str,
+        index: u32,
+        count: u32,
+    },
+    #[error("{from}: {count} tasks cannot share {spp} samples per pixel")]
+    MoreTasksThanSamples {
+        from: &'static str,
+        count: u32,
+        spp: u32,
+    },
+    #[error("{name}: expected an unsigned integer, found {}", echo(value))]
+    NotANumber { name: &'static str, value: String },
+    #[error("SLURM_ARRAY_TASK_ID is set but not SLURM_ARRAY_TASK_COUNT: pass --task-count")]
+    SlurmWithoutCount,
+    #[error("SLURM_ARRAY_TASK_ID: {id} is not in the array {min}, {}, ...", min + step)]
+    NotInArray { id: u32, min: u32, step: u32 },
+    #[error("JOB_COMPLETION_INDEX is set: pass --task-count with the Job's completions")]
+    KubernetesWithoutCount,
+}
 
 /// Task `index` of `count`, and where that was learnt (for messages).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -15,37 +42,40 @@ pub struct Task {
 
 impl Task {
     /// The task's share of `0..spp`: range `i` is `i*spp/n .. (i+1)*spp/n`.
-    pub fn range(&self, spp: u32) -> Result<Range<u32>, String> {
+    pub fn range(&self, spp: u32) -> Result<Range<u32>, TaskError> {
         let (i, n) = (self.index as u64, self.count as u64);
+        let from = self.source;
         if n == 0 {
-            return Err(format!(
-                "{}: the task count must be at least 1",
-                self.source
-            ));
+            return Err(TaskError::NoTasks { from });
         }
         if i >= n {
-            return Err(format!(
-                "{}: task index {i} is not below the task count {n}",
-                self.source
-            ));
+            return Err(TaskError::IndexNotBelowCount {
+                from,
+                index: self.index,
+                count: self.count,
+            });
         }
         if n > spp as u64 {
-            return Err(format!(
-                "{}: {n} tasks cannot share {spp} samples per pixel",
-                self.source
-            ));
+            return Err(TaskError::MoreTasksThanSamples {
+                from,
+                count: self.count,
+                spp,
+            });
         }
         let spp = spp as u64;
         Ok((i * spp / n) as u32..((i + 1) * spp / n) as u32)
     }
 }
 
-fn number(env: &impl Fn(&str) -> Option<String>, name: &str) -> Result<Option<u32>, String> {
+fn number(
+    env: &impl Fn(&str) -> Option<String>,
+    name: &'static str,
+) -> Result<Option<u32>, TaskError> {
     env(name)
         .map(|v| {
             v.trim()
                 .parse()
-                .map_err(|_| format!("{name}: expected an unsigned integer, found `{v}`"))
+                .map_err(|_| TaskError::NotANumber { name, value: v })
         })
         .transpose()
 }
@@ -58,21 +88,16 @@ fn number(env: &impl Fn(&str) -> Option<String>, name: &str) -> Result<Option<u3
 pub fn from_env(
     env: impl Fn(&str) -> Option<String>,
     count: Option<u32>,
-) -> Result<Option<Task>, String> {
+) -> Result<Option<Task>, TaskError> {
     if let Some(id) = number(&env, "SLURM_ARRAY_TASK_ID")? {
         let min = number(&env, "SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
         let step = number(&env, "SLURM_ARRAY_TASK_STEP")?.unwrap_or(1).max(1);
         let count = match count {
             Some(c) => c,
-            None => number(&env, "SLURM_ARRAY_TASK_COUNT")?.ok_or(
-                "SLURM_ARRAY_TASK_ID is set but not SLURM_ARRAY_TASK_COUNT: pass --task-count",
-            )?,
+            None => number(&env, "SLURM_ARRAY_TASK_COUNT")?.ok_or(TaskError::SlurmWithoutCount)?,
         };
         if id < min || (id - min) % step != 0 {
-            return Err(format!(
-                "SLURM_ARRAY_TASK_ID: {id} is not in the array {min}, {}, ...",
-                min + step
-            ));
+            return Err(TaskError::NotInArray { id, min, step });
         }
         return Ok(Some(Task {
             index: (id - min) / step,
@@ -81,8 +106,7 @@ pub fn from_env(
         }));
     }
     if let Some(index) = number(&env, "JOB_COMPLETION_INDEX")? {
-        let count = count
-            .ok_or("JOB_COMPLETION_INDEX is set: pass --task-count with the Job's completions")?;
+        let count = count.ok_or(TaskError::KubernetesWithoutCount)?;
         return Ok(Some(Task {
             index,
             count,
@@ -150,9 +174,10 @@ mod tests {
         assert_eq!(from_env(env(&stepped), None).unwrap().unwrap().index, 2);
 
         let k8s = [("JOB_COMPLETION_INDEX", "3")];
-        assert!(from_env(env(&k8s), None)
-            .unwrap_err()
-            .contains("--task-count"));
+        assert_eq!(
+            from_env(env(&k8s), None).unwrap_err(),
+            TaskError::KubernetesWithoutCount
+        );
         let task = from_env(env(&k8s), Some(4)).unwrap().unwrap();
         assert_eq!((task.index, task.count), (3, 4));
 
@@ -162,7 +187,7 @@ mod tests {
             ("SLURM_ARRAY_TASK_COUNT", "4"),
         ];
         assert_eq!(
-            from_env(env(&bad), None).unwrap_err(),
+            from_env(env(&bad), None).unwrap_err().to_string(),
             "SLURM_ARRAY_TASK_ID: expected an unsigned integer, found `x`"
         );
     }

@@ -21,6 +21,12 @@ pub fn check_resolution(width: u32, height: u32) -> Result<(), String> {
     }
 }
 
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FilmError {
+    #[error("a {width}x{height} film needs {:.1} GB of memory, which could not be allocated", *bytes as f64 / 1e9)]
+    OutOfMemory { width: u32, height: u32, bytes: u64 },
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     pub width: u32,
@@ -64,7 +70,7 @@ impl Film {
     /// An empty film, or an error saying how much memory it needed when the
     /// allocation fails: a scene may ask for 32768×32768 pixels (51 GB of
     /// sums), which must end in a message, not an abort.
-    pub fn try_new(width: u32, height: u32) -> Result<Self, String> {
+    pub fn try_new(width: u32, height: u32) -> Result<Self, FilmError> {
         let n = width as usize * height as usize;
         let zeroed = || -> Option<Vec<[f64; 3]>> {
             let mut v = Vec::new();
@@ -72,11 +78,10 @@ impl Film {
             v.resize(n, [0.0; 3]);
             Some(v)
         };
-        let too_large = || {
-            format!(
-                "a {width}x{height} film needs {:.1} GB of memory, which could not be allocated",
-                (2 * n * size_of::<[f64; 3]>()) as f64 / 1e9
-            )
+        let too_large = || FilmError::OutOfMemory {
+            width,
+            height,
+            bytes: 2 * n as u64 * size_of::<[f64; 3]>() as u64,
         };
         Ok(Self {
             width,

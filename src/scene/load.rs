@@ -10,6 +10,7 @@ use crate::location::line_column;
 use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
 use crate::render::film::check_resolution;
 use serde::Deserialize;
+use std::cell::RefCell;
 use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -52,7 +53,11 @@ pub fn load_bytes(data: &[u8], path: &Path) -> Result<Scene, SceneError> {
 /// Loads a scene from `text`; `path` names it in errors and anchors
 /// relative file names.
 pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
-    let ctx = Ctx { text, path };
+    let ctx = Ctx {
+        text,
+        path,
+        files: RefCell::new(vec![path.to_path_buf()]),
+    };
     let desc: SceneDesc = toml::from_str(text).map_err(|e| {
         let span = e.span().unwrap_or(0..0);
         // One line per error: toml puts its expectations on further lines.
@@ -69,7 +74,9 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
             .unwrap_or(span.start);
         ctx.error_at(at, message)
     })?;
-    ctx.build(desc)
+    let mut scene = ctx.build(desc)?;
+    scene.files = ctx.files.into_inner();
+    Ok(scene)
 }
 
 const DEFAULT_ASSETS: &str = "../shared/assets";
@@ -203,6 +210,8 @@ struct EnvironmentDesc {
 struct Ctx<'a> {
     text: &'a str,
     path: &'a Path,
+    /// The files read so far, the scene file first.
+    files: RefCell<Vec<PathBuf>>,
 }
 
 impl Ctx<'_> {
@@ -304,6 +313,7 @@ impl Ctx<'_> {
         };
         for c in candidates {
             if c.is_file() {
+                self.files.borrow_mut().push(c.clone());
                 return Ok(c);
             }
             tried.push(c.display().to_string());

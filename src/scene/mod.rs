@@ -16,6 +16,7 @@ pub use texture::{Texture, UvTransform};
 
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit, SurfacePoint};
 use crate::math::{Ray, Rgb, Vec3};
+use std::path::PathBuf;
 
 /// One shape of the scene; its index in `Scene::shapes` is its `geom` id.
 #[derive(Clone, Debug)]
@@ -71,6 +72,10 @@ pub struct Scene {
     pub environment: Option<Rgb>,
     pub lights: LightSampler,
     pub render: RenderSettings,
+    /// The files the scene was read from: the scene file, then every mesh
+    /// and texture it names. Empty for a scene built in code. Outputs are
+    /// checked against them, so a render never overwrites its own input.
+    pub files: Vec<PathBuf>,
     /// Per material, what its vertices evaluate; derived from `materials`.
     shading: Vec<Shading>,
 }
@@ -102,6 +107,7 @@ impl Scene {
             environment,
             lights,
             render,
+            files: Vec::new(),
             shading,
         }
     }

@@ -1,0 +1,437 @@
+//! The render job: which samples to render, where the checkpoint goes,
+//! whether a resumed checkpoint is of this render, and how the results are
+//! written, with a full disk or a signal along the way.
+
+use super::files::{check_output, refuse_overlaps, Checkpoint, Role};
+use super::signals::Stop;
+use super::{JobError, WriteError};
+use crate::accel::{Accel, Backend as _, BackendKind, BuildOptions};
+use crate::distributed::part::{self, PartMeta};
+use crate::distributed::passes::{render_passes, Outcome};
+use crate::distributed::task::{self, Task};
+use crate::image::io::{self as imageio, WriteOptions};
+use crate::render::{Film, Progress, RenderOptions, RenderStats};
+use crate::scene::{Scene, SceneError};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// What the command line may override in the scene file.
+#[derive(Clone, Debug, Default)]
+pub struct Overrides {
+    pub spp: Option<u32>,
+    pub max_depth: Option<u32>,
+    pub seed: Option<u64>,
+    pub russian_roulette: Option<bool>,
+    pub resolution: Option<(u32, u32)>,
+}
+
+impl Overrides {
+    /// Loads the scene at `path` and applies the overrides.
+    pub fn load(&self, path: &Path) -> Result<Scene, SceneError> {
+        let mut scene = crate::scene::load(path)?;
+        if let Some((w, h)) = self.resolution {
+            scene.camera.width = w;
+            scene.camera.height = h;
+        }
+        let settings = &mut scene.render;
+        settings.spp = self.spp.unwrap_or(settings.spp);
+        settings.max_depth = self.max_depth.unwrap_or(settings.max_depth);
+        settings.seed = self.seed.unwrap_or(settings.seed);
+        settings.russian_roulette = self.russian_roulette.unwrap_or(settings.russian_roulette);
+        Ok(scene)
+    }
+}
+
+/// Which of the scene's samples per pixel to render.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SampleChoice {
+    /// Sample indices `A..B` (`--samples`).
+    Range(Range<u32>),
+    /// A task's share (`--task-index`, `--task-count`).
+    Task(Task),
+    /// The batch system's task, from the environment (Slurm, Kubernetes),
+    /// with the task count given on the command line if it was; every
+    /// sample when there is no task.
+    BatchSystem { count: Option<u32> },
+}
+
+/// A stage before the first sample, reported when done.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    Loaded,
+    Built,
+}
+
+/// Whoever shows the job's progress.
+pub trait Observer: Progress {
+    fn stage_done(&self, _stage: Stage, _time: Duration) {}
+    fn task_chosen(&self, _task: &Task, _samples: &Range<u32>) {}
+    /// Rendering starts: `steps` rows of one sample each are to come, of
+    /// `samples_per_step` samples.
+    fn rendering(&self, _steps: u64, _samples_per_step: u64) {}
+    /// A checkpoint could not be written; the render goes on.
+    fn checkpoint_failed(&self, _error: &WriteError) {}
+}
+
+impl Observer for () {}
+
+/// `luz render`, as parsed from its arguments.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    pub scene: PathBuf,
+    /// Default: the scene's name with `.png`, in the current folder.
+    pub output: Option<PathBuf>,
+    pub backend: BackendKind,
+    pub build: BuildOptions,
+    pub overrides: Overrides,
+    pub samples: SampleChoice,
+    /// Default: the resume file, else the output's name with
+    /// `.checkpoint.exr`.
+    pub checkpoint: Option<PathBuf>,
+    /// `None`: no checkpoints while rendering (one is still written when
+    /// the render is stopped).
+    pub checkpoint_every: Option<Duration>,
+    pub resume: Option<PathBuf>,
+    pub write: WriteOptions,
+}
+
+/// What a finished job did.
+#[derive(Clone, Debug)]
+pub struct JobReport {
+    pub output: PathBuf,
+    pub resolution: (u32, u32),
+    pub spp: u32,
+    pub samples: Range<u32>,
+    /// Samples per pixel the resumed checkpoint held (0 without one).
+    pub resumed_at: u64,
+    pub backend: &'static str,
+    pub load_time: Duration,
+    pub hash_time: Duration,
+    pub build_time: Duration,
+    pub stats: RenderStats,
+    pub checkpoints: u32,
+    pub checkpoint_time: Duration,
+    pub checkpoint_failures: u32,
+    pub non_finite: u64,
+}
+
+impl RenderJob {
+    pub fn output_path(&self) -> PathBuf {
+        self.output.clone().unwrap_or_else(|| {
+            let stem = self.scene.file_stem().unwrap_or("render".as_ref());
+            PathBuf::from(stem).with_extension("png")
+        })
+    }
+
+    pub fn checkpoint_path(&self) -> PathBuf {
+        self.checkpoint
+            .clone()
+            .or_else(|| self.resume.clone())
+            .unwrap_or_else(|| self.output_path().with_extension("checkpoint.exr"))
+    }
+
+    /// Runs the job. Everything that can be refused is refused before the
+    /// first sample; see the module docs of [`super`].
+    pub fn run(&self, observer: &dyn Observer, stop: &dyn Stop) -> Result<JobReport, JobError> {
+        let output = self.output_path();
+        let checkpoint_path = self.checkpoint_path();
+        imageio::check_output_path(&output).map_err(JobError::OutputKind)?;
+        if !is_exr(&checkpoint_path) {
+            return Err(JobError::CheckpointNotExr {
+                path: checkpoint_path,
+            });
+        }
+        check_output(Role::Output, &output)?;
+        check_output(Role::Checkpoint, &checkpoint_path)?;
+        let outputs = [
+            (Role::Output, output.as_path()),
+            (Role::Checkpoint, &checkpoint_path),
+        ];
+        let mut inputs = vec![(Role::Scene, self.scene.as_path())];
+        inputs.extend(self.resume.as_deref().map(|r| (Role::Resume, r)));
+        // The resumed checkpoint is the checkpoint by default: only the
+        // output must not be it.
+        refuse_overlaps(&outputs[..1], &inputs)?;
+        refuse_overlaps(&outputs[1..], &inputs[..1])?;
+        let mut checkpoint = Checkpoint::claim(&checkpoint_path, self.resume.as_deref())?;
+
+        let load_start = Instant::now();
+        let scene = std::sync::Arc::new(self.overrides.load(&self.scene)?);
+        let load_time = load_start.elapsed();
+        observer.stage_done(Stage::Loaded, load_time);
+        let scene_files: Vec<(Role, &Path)> = scene
+            .files
+            .iter()
+            .enumerate()
+            .map(|(i, f)| {
+                (
+                    if i == 0 {
+                        Role::Scene
+                    } else {
+                        Role::SceneInput
+                    },
+                    f.as_path(),
+                )
+            })
+            .collect();
+        refuse_overlaps(&outputs, &scene_files)?;
+
+        let spp = scene.render.spp;
+        let samples = self.sample_range(spp, observer)?;
+        if samples != (0..spp) && !is_exr(&output) {
+            return Err(JobError::PartialNeedsExr {
+                path: output,
+                samples,
+            });
+        }
+
+        let build_start = Instant::now();
+        let accel = Accel::build(&scene, self.backend, &self.build)?;
+        let build_time = build_start.elapsed();
+        observer.stage_done(Stage::Built, build_time);
+
+        let hash_start = Instant::now();
+        let meta = PartMeta {
+            version: env!("CARGO_PKG_VERSION").into(),
+            scene_hash: part::scene_hash(&scene),
+            seed: scene.render.seed,
+            spp,
+            ranges: vec![samples.clone()],
+            backend: accel.name().into(),
+        };
+        let hash_time = hash_start.elapsed();
+        let (width, height) = (scene.camera.width, scene.camera.height);
+        let mut film = match &self.resume {
+            Some(path) => resumed_film(path, &meta, (width, height))?,
+            None => Film::try_new(width, height).map_err(|error| JobError::Film {
+                scene: self.scene.clone(),
+                error,
+            })?,
+        };
+        let resumed_at = film.samples;
+
+        let options = RenderOptions {
+            samples: samples.clone(),
+            ..RenderOptions::from_scene(&scene)
+        };
+        observer.rendering(
+            height as u64 * (samples.len() as u64 - film.samples),
+            width as u64,
+        );
+        // Passes short enough that a signal is answered within a second or
+        // so, and that checkpoints come about when asked.
+        let pass_time = self
+            .checkpoint_every
+            .map_or(Duration::from_secs(1), |every| {
+                every.min(Duration::from_secs(1))
+            });
+        let mut last_checkpoint = Instant::now();
+        let (mut checkpoints, mut checkpoint_time, mut checkpoint_failures) =
+            (0, Duration::ZERO, 0);
+        let (outcome, stats) = render_passes(
+            &scene,
+            &accel,
+            &options,
+            &mut film,
+            observer,
+            pass_time,
+            || stop.requested().is_some(),
+            |film| {
+                match self.checkpoint_every {
+                    Some(every) if last_checkpoint.elapsed() >= every => {}
+                    _ => return Ok::<_, JobError>(()),
+                }
+                let start = Instant::now();
+                match write_checkpoint(&mut checkpoint, &meta, film) {
+                    Ok(()) => checkpoints += 1,
+                    Err(e) => {
+                        checkpoint_failures += 1;
+                        observer.checkpoint_failed(&e);
+                    }
+                }
+                checkpoint_time += start.elapsed();
+                last_checkpoint = Instant::now();
+                Ok(())
+            },
+        )?;
+
+        stop.writing();
+        if outcome == Outcome::Stopped {
+            return Err(stopped(
+                stop,
+                &mut checkpoint,
+                &output,
+                &meta,
+                &film,
+                &self.write,
+            ));
+        }
+        if let Err(error) = write_output(&output, &held_meta(&meta, &film), &film, &self.write) {
+            let saved = write_checkpoint(&mut checkpoint, &meta, &film)
+                .map(|()| checkpoint.path().to_path_buf())
+                .map_err(Box::new);
+            return Err(JobError::OutputLost { error, saved });
+        }
+        // The output holds everything now; a checkpoint left behind would
+        // only mislead a later --resume.
+        checkpoint.remove().map_err(|source| JobError::Write {
+            role: Role::Checkpoint,
+            error: WriteError::Image(crate::image::ImageError::Io {
+                path: checkpoint.path().to_path_buf(),
+                source,
+            }),
+        })?;
+        Ok(JobReport {
+            output,
+            resolution: (width, height),
+            spp,
+            samples,
+            resumed_at,
+            backend: accel.name(),
+            load_time,
+            hash_time,
+            build_time,
+            stats,
+            checkpoints,
+            checkpoint_time,
+            checkpoint_failures,
+            non_finite: film.non_finite,
+        })
+    }
+
+    /// The samples to render: --samples, else the task's share of `0..spp`
+    /// (--task-index, else the batch system's), else all of them.
+    fn sample_range(&self, spp: u32, observer: &dyn Observer) -> Result<Range<u32>, JobError> {
+        let task = match &self.samples {
+            SampleChoice::Range(samples) => {
+                if samples.end > spp {
+                    return Err(JobError::SamplesBeyondSpp {
+                        samples: samples.clone(),
+                        spp,
+                    });
+                }
+                return Ok(samples.clone());
+            }
+            SampleChoice::Task(task) => task.clone(),
+            SampleChoice::BatchSystem { count } => {
+                match task::from_env(|name| std::env::var(name).ok(), *count)? {
+                    Some(task) => task,
+                    None if count.is_some() => return Err(JobError::TaskCountWithoutIndex),
+                    None => return Ok(0..spp),
+                }
+            }
+        };
+        let range = task.range(spp)?;
+        observer.task_chosen(&task, &range);
+        Ok(range)
+    }
+}
+
+/// The error of a render stopped by a signal, after saving what it holds.
+fn stopped(
+    stop: &dyn Stop,
+    checkpoint: &mut Checkpoint,
+    output: &Path,
+    meta: &PartMeta,
+    film: &Film,
+    write: &WriteOptions,
+) -> JobError {
+    let signal = stop
+        .requested()
+        .expect("a stopped render was asked to stop");
+    let (held, of) = (film.samples, meta.sample_count());
+    if film.samples == 0 {
+        return JobError::Interrupted {
+            signal,
+            held,
+            of,
+            saved: None,
+        };
+    }
+    let saved = write_checkpoint(checkpoint, meta, film)
+        .map_err(|error| JobError::Write {
+            role: Role::Checkpoint,
+            error,
+        })
+        .and_then(|()| {
+            write_output(output, &held_meta(meta, film), film, write).map_err(|error| {
+                JobError::Write {
+                    role: Role::Output,
+                    error,
+                }
+            })
+        });
+    match saved {
+        Ok(()) => JobError::Interrupted {
+            signal,
+            held,
+            of,
+            saved: Some((checkpoint.path().to_path_buf(), output.to_path_buf())),
+        },
+        Err(e) => e,
+    }
+}
+
+fn is_exr(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("exr"))
+}
+
+/// The film of a checkpoint, if it is of this very render.
+fn resumed_film(path: &Path, meta: &PartMeta, resolution: (u32, u32)) -> Result<Film, JobError> {
+    let saved = part::read(path).map_err(JobError::Part)?;
+    let (ours, theirs) = (meta, &saved.meta);
+    let saved_resolution = (saved.film.width, saved.film.height);
+    if let Some(mismatch) = part::first_mismatch((ours, resolution), (theirs, saved_resolution)) {
+        return Err(JobError::ResumeMismatch {
+            path: path.to_path_buf(),
+            mismatch,
+        });
+    }
+    let wanted = &ours.ranges[0];
+    match theirs.ranges.as_slice() {
+        [held] if held.start == wanted.start && held.end <= wanted.end => Ok(saved.film),
+        _ => Err(JobError::ResumeSamples {
+            path: path.to_path_buf(),
+            held: part::format_ranges(&theirs.ranges),
+            wanted: wanted.clone(),
+        }),
+    }
+}
+
+/// `meta` for a film holding the first `film.samples` of the samples `meta`
+/// was made for.
+fn held_meta(meta: &PartMeta, film: &Film) -> PartMeta {
+    let start = meta.ranges[0].start;
+    let range = start..start + film.samples as u32;
+    PartMeta {
+        ranges: vec![range],
+        ..meta.clone()
+    }
+}
+
+fn write_checkpoint(
+    checkpoint: &mut Checkpoint,
+    meta: &PartMeta,
+    film: &Film,
+) -> Result<(), WriteError> {
+    let meta = held_meta(meta, film);
+    checkpoint.write(|path| part::write(path, &meta, film).map_err(WriteError::from))
+}
+
+/// Writes `film` to `path`: a part (`meta` says what it holds) when `path`
+/// is an EXR, else the tone mapped image.
+pub(super) fn write_output(
+    path: &Path,
+    meta: &PartMeta,
+    film: &Film,
+    write: &WriteOptions,
+) -> Result<(), WriteError> {
+    if is_exr(path) {
+        part::write(path, meta, film)?;
+    } else {
+        imageio::write(path, &film.image(), write)?;
+    }
+    Ok(())
+}
