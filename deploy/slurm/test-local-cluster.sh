@@ -9,7 +9,8 @@
 #
 #   deploy/slurm/test-local-cluster.sh
 #
-# Environment: LUZ (the luz binary; default: built with cargo in debug),
+# Environment: LUZ (the luz binary; default: built with cargo in debug, at
+# the path cargo reports, so CARGO_TARGET_DIR is honoured),
 # SCENE (scenes/cornell-area.toml), RESOLUTION (64x64), SPP (64), TASKS (4),
 # SLURM_PORTS (where to look for two free TCP ports; default 16817).
 set -euo pipefail
@@ -32,9 +33,36 @@ if ! command -v slurmctld >/dev/null || ! command -v slurmd >/dev/null ||
         --no-install-recommends slurm-wlm munge >/dev/null
 fi
 
+# The binary's path comes from cargo itself (the `executable` of the luz bin
+# artifact in its JSON messages), so CARGO_TARGET_DIR, build.target-dir and
+# CARGO_BUILD_TARGET are honoured. Plain grep and sed: no jq needed.
+luz_from_cargo() {
+    local messages path
+    messages=$(cd "$repo" && cargo build --quiet --bin luz \
+        --message-format=json-render-diagnostics) || {
+        say "cargo build failed"
+        return 1
+    }
+    path=$(printf '%s\n' "$messages" | grep '"reason":"compiler-artifact"' |
+        grep '"kind":\["bin"\]' | grep '"name":"luz"' |
+        sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' | tail -n 1)
+    case $path in
+    "" | *\\*)
+        # Empty, or JSON-escaped (a backslash): not a path to use as is.
+        say "cannot find the luz binary in cargo's build messages; set LUZ"
+        return 1
+        ;;
+    esac
+    if [ ! -x "$path" ]; then
+        say "cargo reported $path as the luz binary, but it is not executable"
+        return 1
+    fi
+    printf '%s\n' "$path"
+}
+
 if [ -z "${LUZ:-}" ]; then
-    (cd "$repo" && cargo build --quiet)
-    LUZ=$repo/target/debug/luz
+    LUZ=$(luz_from_cargo)
+    say "luz: $LUZ"
 fi
 export LUZ
 
