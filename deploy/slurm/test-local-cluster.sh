@@ -88,12 +88,12 @@ alive() {
 }
 
 stop_daemon() {
-    local pidfile=$1 pid i
+    local pidfile=$1 pid
     [ -s "$pidfile" ] || return 0
     pid=$(cat "$pidfile")
     alive "$pid" || return 0
     kill -TERM "$pid" 2>/dev/null || true
-    for i in $(seq 100); do
+    for _ in $(seq 100); do
         alive "$pid" || return 0
         sleep 0.1
     done
@@ -170,7 +170,7 @@ munged --socket="$tmp/munge/munge.socket" --key-file="$tmp/munge/munge.key" \
 slurmctld -f "$SLURM_CONF"
 slurmd -f "$SLURM_CONF" -N localhost
 
-for i in $(seq 300); do
+for _ in $(seq 300); do
     state=$(sinfo --noheader --nodes=localhost --format=%T 2>/dev/null || true)
     [ "$state" = idle ] && break
     sleep 0.1
