@@ -9,7 +9,8 @@
 #
 #   deploy/slurm/test-local-cluster.sh
 #
-# Environment: LUZ (the luz binary; default: built with cargo in debug),
+# Environment: LUZ (the luz binary; default: built with cargo in debug, at
+# the path cargo reports, so CARGO_TARGET_DIR is honoured),
 # SCENE (scenes/cornell-area.toml), RESOLUTION (64x64), SPP (64), TASKS (4),
 # SLURM_PORTS (where to look for two free TCP ports; default 16817).
 set -euo pipefail
@@ -32,9 +33,36 @@ if ! command -v slurmctld >/dev/null || ! command -v slurmd >/dev/null ||
         --no-install-recommends slurm-wlm munge >/dev/null
 fi
 
+# The binary's path comes from cargo itself (the `executable` of the luz bin
+# artifact in its JSON messages), so CARGO_TARGET_DIR, build.target-dir and
+# CARGO_BUILD_TARGET are honoured. Plain grep and sed: no jq needed.
+luz_from_cargo() {
+    local messages path
+    messages=$(cd "$repo" && cargo build --quiet --bin luz \
+        --message-format=json-render-diagnostics) || {
+        say "cargo build failed"
+        return 1
+    }
+    path=$(printf '%s\n' "$messages" | grep '"reason":"compiler-artifact"' |
+        grep '"kind":\["bin"\]' | grep '"name":"luz"' |
+        sed -n 's/.*"executable":"\([^"]*\)".*/\1/p' | tail -n 1)
+    case $path in
+    "" | *\\*)
+        # Empty, or JSON-escaped (a backslash): not a path to use as is.
+        say "cannot find the luz binary in cargo's build messages; set LUZ"
+        return 1
+        ;;
+    esac
+    if [ ! -x "$path" ]; then
+        say "cargo reported $path as the luz binary, but it is not executable"
+        return 1
+    fi
+    printf '%s\n' "$path"
+}
+
 if [ -z "${LUZ:-}" ]; then
-    (cd "$repo" && cargo build --quiet)
-    LUZ=$repo/target/debug/luz
+    LUZ=$(luz_from_cargo)
+    say "luz: $LUZ"
 fi
 export LUZ
 
@@ -60,12 +88,12 @@ alive() {
 }
 
 stop_daemon() {
-    local pidfile=$1 pid i
+    local pidfile=$1 pid
     [ -s "$pidfile" ] || return 0
     pid=$(cat "$pidfile")
     alive "$pid" || return 0
     kill -TERM "$pid" 2>/dev/null || true
-    for i in $(seq 100); do
+    for _ in $(seq 100); do
         alive "$pid" || return 0
         sleep 0.1
     done
@@ -142,7 +170,7 @@ munged --socket="$tmp/munge/munge.socket" --key-file="$tmp/munge/munge.key" \
 slurmctld -f "$SLURM_CONF"
 slurmd -f "$SLURM_CONF" -N localhost
 
-for i in $(seq 300); do
+for _ in $(seq 300); do
     state=$(sinfo --noheader --nodes=localhost --format=%T 2>/dev/null || true)
     [ "$state" = idle ] && break
     sleep 0.1
