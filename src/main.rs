@@ -375,7 +375,14 @@ impl Failure {
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if e.use_stderr() => {
+            eprint!("{}", shorten_arguments(&e.render().to_string()));
+            return ExitCode::from(e.exit_code() as u8);
+        }
+        Err(e) => e.exit(),
+    };
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Tonemap {
@@ -401,6 +408,17 @@ fn main() -> ExitCode {
             ExitCode::from(failure.status)
         }
     }
+}
+
+/// `message` with every long argument of this process that it repeats
+/// shortened (clap echoes a rejected value whole, however long).
+fn shorten_arguments(message: &str) -> String {
+    let mut message = message.to_string();
+    for arg in std::env::args().skip(1).filter(|a| a.len() > 80) {
+        let echoed = luz::echo::echo(&arg);
+        message = message.replace(&arg, echoed.trim_matches('`'));
+    }
+    message
 }
 
 /// Rows finished, drawn as a bar with an ETA and the sample rate; a step is

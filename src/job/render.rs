@@ -152,8 +152,8 @@ impl RenderJob {
         inputs.extend(self.resume.as_deref().map(|r| (Role::Resume, r)));
         // The resumed checkpoint is the checkpoint by default: only the
         // output must not be it.
+        refuse_overlaps(&outputs, &inputs[..1])?;
         refuse_overlaps(&outputs[..1], &inputs)?;
-        refuse_overlaps(&outputs[1..], &inputs[..1])?;
         let mut checkpoint = Checkpoint::claim(&checkpoint_path, self.resume.as_deref())?;
 
         let load_start = Instant::now();

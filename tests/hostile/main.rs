@@ -7,6 +7,8 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+mod job;
+mod outputs;
 
 use common::temp_dir;
 
