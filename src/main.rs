@@ -454,13 +454,19 @@ fn progress_bar(steps: u64, samples_per_step: u64, quiet: bool) -> ProgressBar {
 
 /// Shows a render's progress: stages that kept the user waiting (over half
 /// a second: a large mesh), the task, a bar on a terminal, and elsewhere (a
-/// batch job's log) a line with the ETA every [`LOG_EVERY`], so nobody
-/// waits in the dark.
+/// batch job's log) a line with the ETA after [`FIRST_LOG`] and then every
+/// [`LOG_EVERY`], so nobody waits in the dark.
 struct RenderObserver {
     quiet: bool,
     bar: OnceLock<ProgressBar>,
-    last_line: Mutex<Instant>,
+    /// When the next progress line is due.
+    next_line: Mutex<Instant>,
 }
+
+/// When a render that is not on a terminal first logs its progress: soon
+/// enough that a week-long request is seen at once, late enough that the
+/// rate is known.
+const FIRST_LOG: Duration = Duration::from_secs(5);
 
 /// How often a render that is not on a terminal logs its progress.
 const LOG_EVERY: Duration = Duration::from_secs(60);
@@ -470,7 +476,7 @@ impl RenderObserver {
         Self {
             quiet,
             bar: OnceLock::new(),
-            last_line: Mutex::new(Instant::now()),
+            next_line: Mutex::new(Instant::now() + FIRST_LOG),
         }
     }
 
@@ -489,11 +495,11 @@ impl Progress for RenderObserver {
         if self.quiet || !bar.is_hidden() {
             return;
         }
-        let Ok(mut last) = self.last_line.try_lock() else {
+        let Ok(mut next) = self.next_line.try_lock() else {
             return;
         };
-        if last.elapsed() >= LOG_EVERY {
-            *last = Instant::now();
+        if Instant::now() >= *next {
+            *next = Instant::now() + LOG_EVERY;
             let done = bar.position() as f64 / bar.length().unwrap_or(1).max(1) as f64;
             eprintln!(
                 "luz: {:.1}% done after {}, ETA {}",
@@ -527,7 +533,7 @@ impl Observer for RenderObserver {
 
     fn rendering(&self, steps: u64, samples_per_step: u64) {
         let bar = progress_bar(steps, samples_per_step, self.quiet);
-        *self.last_line.lock().expect("no panics while held") = Instant::now();
+        *self.next_line.lock().expect("no panics while held") = Instant::now() + FIRST_LOG;
         let _ = self.bar.set(bar);
     }
 

@@ -354,3 +354,37 @@ fn sigterm_relayed_twice_by_timeout_still_saves_the_render() {
         assert!(part.film.samples > 0);
     }
 }
+
+/// A legal but huge request is rendered, and a log (not a terminal) gets a
+/// progress line with the ETA within seconds, so nobody waits in the dark.
+#[test]
+fn a_huge_request_logs_its_eta() {
+    if Command::new("timeout").arg("--version").output().is_err() {
+        eprintln!("skipped: GNU timeout is not installed");
+        return;
+    }
+    let dir = temp_dir("huge");
+    let scene = scene_in(&dir);
+    let out = dir.join("out.png");
+    let run = Command::new("timeout")
+        .args(["--preserve-status", "-s", "INT", "8"])
+        .arg(env!("CARGO_BIN_EXE_luz"))
+        .args([
+            "render",
+            s(&scene),
+            "--spp",
+            "4000000000",
+            "--max-depth",
+            "4000000000",
+        ])
+        .args(["--checkpoint-every", "off", "-o", s(&out)])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(130), "{stderr}");
+    let line = stderr
+        .lines()
+        .find(|l| l.contains("% done after"))
+        .unwrap_or_else(|| panic!("no progress line in: {stderr}"));
+    assert!(line.contains("ETA"), "{line}");
+}
