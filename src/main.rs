@@ -441,7 +441,7 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         seed: scene.render.seed,
         spp,
         ranges: vec![samples.clone()],
-        backend: accel.name().into(),
+        backend: accel.kind(),
     };
     let (width, height) = (scene.camera.width, scene.camera.height);
     let mut film = match &args.resume {
