@@ -162,9 +162,21 @@ fn merge_refuses_foreign_overlapping_missing_and_corrupt_parts() {
         "luz:version: missing",
         &out,
     );
+    // A part cut short in its pixels is caught by its header's size before
+    // any pixel is read; one cut in its header is no EXR at all.
     let bytes = std::fs::read(p("b.exr")).unwrap();
     std::fs::write(p("cut.exr"), &bytes[..bytes.len() / 2]).unwrap();
-    assert_input_error(&merge(&["a.exr", "cut.exr"], &[]), "cut.exr: file:", &out);
+    assert_input_error(
+        &merge(&["a.exr", "cut.exr"], &[]),
+        "cut.exr: dataWindow: 24x24 pixels of 60 bytes need at least",
+        &out,
+    );
+    std::fs::write(p("cut-header.exr"), &bytes[..100]).unwrap();
+    assert_input_error(
+        &merge(&["a.exr", "cut-header.exr"], &[]),
+        "cut-header.exr: file:",
+        &out,
+    );
 
     // With --allow-gaps the merge goes through and says what is missing.
     let gaps = merge(&["b.exr"], &["--allow-gaps", "--quiet"]);

@@ -152,6 +152,15 @@ impl Accel {
         Ok(Self { root, tree })
     }
 
+    /// The backend built: `Rust` or `Embree`, never `Auto`.
+    pub fn kind(&self) -> BackendKind {
+        match &self.tree {
+            AccelTree::Native(_) => BackendKind::Rust,
+            #[cfg(luz_embree)]
+            AccelTree::Embree(_) => BackendKind::Embree,
+        }
+    }
+
     pub fn tree(&self) -> &AccelTree {
         &self.tree
     }

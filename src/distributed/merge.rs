@@ -123,6 +123,7 @@ pub fn merge(mut parts: Vec<(PathBuf, Part)>, allow_gaps: bool) -> Result<Merged
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::accel::BackendKind;
 
     fn part(ranges: &[(u32, u32)], value: f64) -> (PathBuf, Part) {
         let mut film = Film::new(2, 1);
@@ -134,7 +135,7 @@ mod tests {
             seed: 7,
             spp: 8,
             ranges: ranges.iter().map(|&(a, b)| a..b).collect(),
-            backend: "rust".into(),
+            backend: BackendKind::Rust,
         };
         film.samples = meta.sample_count();
         let name = format!("{}.exr", format_ranges(&meta.ranges));

@@ -198,7 +198,7 @@ impl RenderJob {
             seed: scene.render.seed,
             spp,
             ranges: vec![samples.clone()],
-            backend: accel.name().into(),
+            backend: accel.kind(),
         };
         let hash_time = hash_start.elapsed();
         let (width, height) = (scene.camera.width, scene.camera.height);

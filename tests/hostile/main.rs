@@ -9,6 +9,7 @@
 mod common;
 mod job;
 mod outputs;
+mod parts;
 
 use common::temp_dir;
 
