@@ -71,6 +71,9 @@ pub struct Scene {
     pub environment: Option<Rgb>,
     pub lights: LightSampler,
     pub render: RenderSettings,
+    /// What the loader noticed but did not refuse (mesh data luz does not
+    /// use, triangles it dropped), one line per mesh; `load` prints them.
+    pub warnings: Vec<String>,
     /// Per material, what its vertices evaluate; derived from `materials`.
     shading: Vec<Shading>,
 }
@@ -102,6 +105,7 @@ impl Scene {
             environment,
             lights,
             render,
+            warnings: Vec::new(),
             shading,
         }
     }

@@ -7,6 +7,7 @@
 
 #[path = "../common/mod.rs"]
 mod common;
+mod scenes;
 
 use common::temp_dir;
 
