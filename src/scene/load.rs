@@ -573,7 +573,8 @@ impl Ctx<'_> {
         let (d, u) = ((target - eye).as_dvec3(), up.as_dvec3());
         let (d, u) = (d / d.abs().max_element(), u / u.abs().max_element());
         let sin = d.normalize().cross(u.normalize()).length();
-        if !(sin >= 1e-6) {
+        // (Both unit vectors are finite: `sin` is a number.)
+        if sin < 1e-6 {
             return Err(self.field_error(
                 &span,
                 "up",
@@ -775,14 +776,16 @@ impl Ctx<'_> {
             "cuboid" => &["min", "max"],
             "triangle" => &["vertices", "uvs"],
             "mesh" => &["file", "scale", "rotate", "translate"],
-            other => return Err(self.field_error(
-                span,
-                "type",
-                format!(
+            other => {
+                return Err(self.field_error(
+                    span,
+                    "type",
+                    format!(
                     "unknown shape type {} (known: sphere, plane, quad, cuboid, triangle, mesh)",
                     echo(other)
                 ),
-            )),
+                ))
+            }
         };
         let present = [
             ("center", sd.center.is_some()),
@@ -1250,11 +1253,9 @@ mod tests {
     #[test]
     fn huge_and_tiny_directions_are_directions() {
         let s = load_str(
-            &format!(
-                "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\nup = [0, 1e-30, 0]\n\
-                 [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 3e38, 3e38]\n\
-                 [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [1e-40, 0, 0]\n"
-            ),
+            "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\nup = [0, 1e-30, 0]\n\
+             [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 3e38, 3e38]\n\
+             [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [1e-40, 0, 0]\n",
             Path::new("d.toml"),
         )
         .unwrap();

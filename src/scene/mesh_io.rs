@@ -81,7 +81,7 @@ pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<(Mesh, Vec<String>),
         .unwrap_or_default();
     let name = name.strip_suffix(".gz").unwrap_or(&name);
     let is_ply = name.ends_with(".ply");
-    let parse: fn(&[u8]) -> Result<(Mesh, Vec<String>), Fail> = if is_ply {
+    let parse: fn(&[u8]) -> Result<Noted, Fail> = if is_ply {
         parse_ply
     } else if name.ends_with(".obj") {
         parse_obj
@@ -111,6 +111,9 @@ pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<(Mesh, Vec<String>),
     }
     parse(&out).map_err(|f| f.at(path))
 }
+
+/// A mesh with the notes on what of its file luz did not use.
+type Noted = (Mesh, Vec<String>);
 
 /// The most bytes a PLY header may take before `end_header`.
 const MAX_PLY_HEADER: usize = 1 << 20;
@@ -652,7 +655,7 @@ fn plan(elements: &[Element], end_line: usize) -> Result<Plan, Fail> {
     })
 }
 
-fn parse_ply(data: &[u8]) -> Result<(Mesh, Vec<String>), Fail> {
+fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
     let header = parse_header(data)?;
     let Plan {
         roles,
@@ -1184,7 +1187,7 @@ fn binary_body<const BE: bool>(
 // ---------------------------------------------------------------------------
 // OBJ
 
-fn parse_obj(data: &[u8]) -> Result<(Mesh, Vec<String>), Fail> {
+fn parse_obj(data: &[u8]) -> Result<Noted, Fail> {
     let text = std::str::from_utf8(data).map_err(|e| {
         let (line, column) = line_column(data, e.valid_up_to());
         fail_at(line, column, "the file is not UTF-8 text")
