@@ -1,4 +1,30 @@
-//! Where a byte offset lies in a text file, as located errors report it.
+//! Where a byte offset lies in a text file, as located errors report it;
+//! and reading an input file only when it is a regular file.
+
+use std::path::Path;
+
+/// The bytes of the file at `path`, which must be a regular file (after
+/// symbolic links): a FIFO would block the read for ever, a device such as
+/// `/dev/zero` never ends, a directory is no input. Checked by its metadata
+/// before it is opened.
+pub fn read_regular_file(path: &Path) -> std::io::Result<Vec<u8>> {
+    let meta = std::fs::metadata(path)?;
+    if !meta.is_file() {
+        return Err(not_regular(path));
+    }
+    std::fs::read(path)
+}
+
+/// The error of a path that is not a regular file, naming it.
+pub fn not_regular(path: &Path) -> std::io::Error {
+    std::io::Error::new(
+        std::io::ErrorKind::InvalidInput,
+        format!(
+            "{} is not a regular file",
+            crate::echo::echo(&path.display().to_string())
+        ),
+    )
+}
 
 /// The 1-based line and column (counted in bytes) of byte `offset` of
 /// `text`; an offset past the end is the end.

@@ -18,6 +18,22 @@ pub use sphere::Sphere;
 
 use crate::math::{Aabb, Ray, Vec2, Vec3};
 
+/// The largest coordinate magnitude a scene may place anything at. The
+/// intersection routines are f32 (as Embree is) and raise coordinate
+/// differences to the third power (a triangle's plane distance is the dot
+/// product of an offset with a cross product of edges); at ±1e12 the cube
+/// of the largest difference stays finite with room for the sums, where at
+/// ±1e20 a mesh silently vanished on both backends. The loader refuses
+/// scenes whose derived positions (transformed vertices, a sphere's bounds,
+/// the eye, lights) reach past it.
+pub const MAX_COORDINATE: f32 = 1e12;
+
+/// Whether `p` is finite and within [`MAX_COORDINATE`] on every axis.
+#[inline]
+pub fn within_bounds(p: Vec3) -> bool {
+    p.is_finite() && p.abs().cmple(Vec3::splat(MAX_COORDINATE)).all()
+}
+
 /// Preliminary hit: ray parameter, the scene's shape id (`geom`), the
 /// primitive within it (`prim`: triangle index, 0 otherwise) and two
 /// shape-specific coordinates (barycentrics of vertices 1 and 2 for

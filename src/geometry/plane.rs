@@ -15,9 +15,12 @@ pub struct Plane {
 }
 
 impl Plane {
-    /// `normal` must be non-zero; it is normalised here.
+    /// `normal` must be finite and non-zero; it is normalised here, after
+    /// dividing by its largest component, so that neither a huge nor a tiny
+    /// normal over- or underflows on the way (`[0, 3e38, 3e38]` is a
+    /// direction like any other).
     pub fn new(point: Vec3, normal: Vec3) -> Self {
-        let normal = normal.normalize();
+        let normal = (normal / normal.abs().max_element()).normalize();
         Self {
             point,
             normal,

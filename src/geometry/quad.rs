@@ -29,7 +29,9 @@ impl Quad {
             return None;
         }
         let normal = c / area;
-        let w = c / c.length_squared();
+        // c / |c|², without squaring |c| (which overflows for edges of
+        // 1e12, well inside the coordinates a scene may use).
+        let w = normal / area;
         Some(Self {
             p0,
             e1,

@@ -165,8 +165,10 @@ fn sniff(data: &[u8]) -> Option<Kind> {
     }
 }
 
+/// The bytes of an input image, which must be a regular file (a FIFO would
+/// block the read for ever).
 fn read_bytes(path: &Path) -> Result<Vec<u8>, ImageError> {
-    std::fs::read(path).map_err(|source| ImageError::Io {
+    crate::location::read_regular_file(path).map_err(|source| ImageError::Io {
         path: path.to_path_buf(),
         source,
     })

@@ -5,13 +5,15 @@
 //! `Scene`. Every error names the file, the line and column, and the field.
 
 use super::{Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform};
-use crate::geometry::{Cuboid, Geometry, Mesh, Plane, Quad, Sphere};
-use crate::location::line_column;
+use crate::echo::echo;
+use crate::geometry::{within_bounds, Cuboid, Geometry, Mesh, Plane, Quad, Sphere, MAX_COORDINATE};
+use crate::location::{line_column, read_regular_file};
 use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
 use crate::render::film::check_resolution;
 use serde::Deserialize;
 use std::cell::RefCell;
 use std::collections::BTreeMap;
+use std::marker::PhantomData;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
@@ -26,14 +28,20 @@ pub struct SceneError {
     pub message: String,
 }
 
-/// Loads and validates the scene file at `path`.
+/// Loads and validates the scene file at `path`, which must be a regular
+/// file (a FIFO would block the read for ever); the scene's warnings
+/// ([`Scene::warnings`]) go to stderr, one line each.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let data = std::fs::read(path).map_err(|e| SceneError {
+    let data = read_regular_file(path).map_err(|e| SceneError {
         file: path.to_path_buf(),
         location: None,
         message: format!("cannot read the scene file: {e}"),
     })?;
-    load_bytes(&data, path)
+    let scene = load_bytes(&data, path)?;
+    for w in &scene.warnings {
+        eprintln!("luz: warning: {w}");
+    }
+    Ok(scene)
 }
 
 /// Loads a scene from the bytes of a scene file, which must be UTF-8;
@@ -60,10 +68,13 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
     };
     let desc: SceneDesc = toml::from_str(text).map_err(|e| {
         let span = e.span().unwrap_or(0..0);
-        // One line per error: toml puts its expectations on further lines.
-        let mut message = e.message().trim().lines().collect::<Vec<_>>().join(": ");
+        // One line per error: toml puts its expectations on further lines;
+        // the values serde repeats (an unknown key, a string of the wrong
+        // type) are shortened.
+        let mut message =
+            shorten_quoted(&e.message().trim().lines().collect::<Vec<_>>().join(": "));
         if let Some(key) = key_before(text, span.start) {
-            message = format!("field `{key}`: {message}");
+            message = format!("field {}: {message}", echo(key));
         }
         if let Some(hint) = did_you_mean(&message) {
             message.push_str(&format!(" (did you mean `{hint}`?)"));
@@ -81,20 +92,53 @@ pub fn load_str(text: &str, path: &Path) -> Result<Scene, SceneError> {
 
 const DEFAULT_ASSETS: &str = "../shared/assets";
 
+/// A TOML table, read only as a table. serde's derived structs also accept
+/// a sequence, their fields by position, and drop what is left over:
+/// `environment = [0.25, 99, "junk"]` was read as `radiance = 0.25`. Every
+/// table of the format is read through this wrapper, which asks the
+/// deserializer for a map and refuses anything else.
+struct Table<T>(T);
+
+impl<T> std::ops::Deref for Table<T> {
+    type Target = T;
+    fn deref(&self) -> &T {
+        &self.0
+    }
+}
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Table<T> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct MapOnly<T>(PhantomData<T>);
+        impl<'de, T: Deserialize<'de>> serde::de::Visitor<'de> for MapOnly<T> {
+            type Value = T;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a table (`[name]` or `{ key = value, ... }`)")
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<T, A::Error> {
+                T::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+            }
+        }
+        d.deserialize_map(MapOnly(PhantomData)).map(Table)
+    }
+}
+
+/// A table with the byte span it was written at.
+type Sp<T> = Spanned<Table<T>>;
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SceneDesc {
-    camera: Spanned<CameraDesc>,
-    render: Option<Spanned<RenderDesc>>,
+    camera: Sp<CameraDesc>,
+    render: Option<Sp<RenderDesc>>,
     #[serde(default)]
-    materials: BTreeMap<String, Spanned<MaterialDesc>>,
+    materials: BTreeMap<String, Sp<MaterialDesc>>,
     #[serde(default)]
-    textures: BTreeMap<String, Spanned<TextureDesc>>,
+    textures: BTreeMap<String, Sp<TextureDesc>>,
     #[serde(default)]
-    shapes: Vec<Spanned<ShapeDesc>>,
+    shapes: Vec<Sp<ShapeDesc>>,
     #[serde(default)]
-    lights: Vec<Spanned<LightDesc>>,
-    environment: Option<Spanned<EnvironmentDesc>>,
+    lights: Vec<Sp<LightDesc>>,
+    environment: Option<Sp<EnvironmentDesc>>,
 }
 
 #[derive(Deserialize)]
@@ -269,6 +313,15 @@ impl Ctx<'_> {
         Ok(v)
     }
 
+    /// A position in the world: finite and within [`MAX_COORDINATE`].
+    fn point3(&self, span: &Range<usize>, field: &str, v: [f32; 3]) -> Result<Vec3, SceneError> {
+        let v = self.finite3(span, field, v)?;
+        if !within_bounds(v) {
+            return Err(self.field_error(span, field, outside(v)));
+        }
+        Ok(v)
+    }
+
     fn color(
         &self,
         span: &Range<usize>,
@@ -312,11 +365,20 @@ impl Ctx<'_> {
             vec![base.join(name)]
         };
         for c in candidates {
-            if c.is_file() {
-                self.files.borrow_mut().push(c.clone());
-                return Ok(c);
+            match std::fs::metadata(&c) {
+                Ok(m) if m.is_file() => {
+                    self.files.borrow_mut().push(c.clone());
+                    return Ok(c);
+                }
+                Ok(_) => {
+                    return Err(self.field_error(
+                        span,
+                        "file",
+                        format!("{} is not a regular file", echo(&c.display().to_string())),
+                    ))
+                }
+                Err(_) => tried.push(echo(&c.display().to_string())),
             }
-            tried.push(c.display().to_string());
         }
         let hint = if name.contains("LUZ_ASSETS") {
             " (set LUZ_ASSETS to the folder holding the test assets; see the README)"
@@ -326,7 +388,11 @@ impl Ctx<'_> {
         Err(self.field_error(
             span,
             "file",
-            format!("`{name}` not found; looked for {}{hint}", tried.join(", ")),
+            format!(
+                "{} not found; looked for {}{hint}",
+                echo(name),
+                tried.join(", ")
+            ),
         ))
     }
 
@@ -353,17 +419,22 @@ impl Ctx<'_> {
         let mut default_material = None;
 
         let mut shapes = Vec::new();
+        let mut warnings = Vec::new();
         for s in &desc.shapes {
             let span = s.span();
             let sd = s.get_ref();
-            let geometry = self.geometry(&span, sd)?;
+            let geometry = self.geometry(&span, sd, &mut warnings)?;
             let material = match &sd.material {
                 Some(name) => *material_ids.get(name).ok_or_else(|| {
                     let known: Vec<&str> = material_ids.keys().map(|k| k.as_str()).collect();
                     self.field_error(
                         &span,
                         "material",
-                        format!("no material named `{name}` (defined: {})", known.join(", ")),
+                        format!(
+                            "no material named {} (defined: {})",
+                            echo(name),
+                            known.join(", ")
+                        ),
                     )
                 })?,
                 None => *default_material.get_or_insert_with(|| {
@@ -390,6 +461,21 @@ impl Ctx<'_> {
                     "an infinite plane has no area to sample",
                 ));
             }
+            if shape.nee {
+                let power = materials[material as usize].emission.max_element()
+                    * emitting_area(&shape.geometry);
+                if !power.is_finite() {
+                    return Err(self.field_error(
+                        &span,
+                        "nee",
+                        format!(
+                            "the emitted power (`emission` {} of material {} times the area) overflows f32",
+                            vec3(materials[material as usize].emission),
+                            echo(&materials[material as usize].name)
+                        ),
+                    ));
+                }
+            }
             for (field, v) in [
                 ("texture_scale", sd.texture_scale),
                 ("texture_offset", sd.texture_offset),
@@ -404,6 +490,29 @@ impl Ctx<'_> {
                 scale: sd.texture_scale.map_or(Vec2::ONE, Vec2::from),
                 offset: sd.texture_offset.map_or(Vec2::ZERO, Vec2::from),
             };
+            // The texture coordinates the transform makes of the shape's
+            // own (at most `uv_extent` in magnitude) must stay finite.
+            let extent = uv_extent(&shape.geometry);
+            let t = shape.uv_transform;
+            if !(t.scale.abs() * extent).is_finite() {
+                return Err(self.field_error(
+                    &span,
+                    "texture_scale",
+                    format!("scales this shape's texture coordinates (up to {extent:e}) past f32's range"),
+                ));
+            }
+            if !(t.scale.abs() * extent + t.offset.abs()).is_finite() {
+                let field = if sd.texture_offset.is_some() {
+                    "texture_offset"
+                } else {
+                    "texture_scale"
+                };
+                return Err(self.field_error(
+                    &span,
+                    field,
+                    "moves this shape's texture coordinates past f32's range",
+                ));
+            }
             shapes.push(shape);
         }
 
@@ -416,13 +525,13 @@ impl Ctx<'_> {
                     &span,
                     "type",
                     format!(
-                        "unknown light type `{}`: `point` is the only light of [[lights]]; area lights are shapes whose material has `emission`",
-                        ld.kind
+                        "unknown light type {}: `point` is the only light of [[lights]]; area lights are shapes whose material has `emission`",
+                        echo(&ld.kind)
                     ),
                 ));
             }
             point_lights.push(PointLight {
-                position: self.finite3(&span, "position", ld.position)?,
+                position: self.point3(&span, "position", ld.position)?,
                 intensity: self.color(
                     &span,
                     "intensity",
@@ -444,7 +553,7 @@ impl Ctx<'_> {
             None => None,
         };
 
-        Ok(Scene::new(
+        let mut scene = Scene::new(
             camera,
             materials,
             textures,
@@ -452,25 +561,45 @@ impl Ctx<'_> {
             point_lights,
             environment,
             render,
-        ))
+        );
+        scene.warnings = warnings;
+        Ok(scene)
     }
 
-    fn camera(&self, c: &Spanned<CameraDesc>) -> Result<Camera, SceneError> {
+    fn camera(&self, c: &Sp<CameraDesc>) -> Result<Camera, SceneError> {
         let span = c.span();
         let cd = c.get_ref();
-        let eye = self.finite3(&span, "eye", cd.eye)?;
-        let target = self.finite3(&span, "target", cd.target)?;
+        let eye = self.point3(&span, "eye", cd.eye)?;
+        let target = self.point3(&span, "target", cd.target)?;
         let up = self.finite3(&span, "up", cd.up.unwrap_or([0.0, 1.0, 0.0]))?;
-        if (target - eye).length_squared() == 0.0 {
+        // Both within MAX_COORDINATE: the difference is finite.
+        if target == eye {
             return Err(self.field_error(&span, "target", "must differ from `eye`"));
         }
-        if (target - eye).cross(up).length_squared() == 0.0 {
+        if up == Vec3::ZERO {
+            return Err(self.field_error(&span, "up", "must not be zero"));
+        }
+        // In f64, of unit vectors: neither a huge nor a tiny `up` (or view
+        // direction) over- or underflows. An angle under 1e-6 rad leaves
+        // the image's orientation to rounding.
+        let (d, u) = ((target - eye).as_dvec3(), up.as_dvec3());
+        let (d, u) = (d / d.abs().max_element(), u / u.abs().max_element());
+        let sin = d.normalize().cross(u.normalize()).length();
+        // (Both unit vectors are finite: `sin` is a number.)
+        if sin < 1e-6 {
             return Err(self.field_error(
                 &span,
                 "up",
                 "must not be parallel to the view direction",
             ));
         }
+        // A tiny or huge `up` is scaled to unit length, so the basis's
+        // cross products neither under- nor overflow.
+        let up = if (1e-12..1e12).contains(&up.length_squared()) {
+            up
+        } else {
+            u.normalize().as_vec3()
+        };
         let fov = cd.fov.unwrap_or(40.0);
         if !(fov > 0.0 && fov < 180.0) {
             return Err(self.field_error(
@@ -482,17 +611,33 @@ impl Ctx<'_> {
         let [width, height] = cd.resolution.unwrap_or([512, 512]);
         check_resolution(width, height)
             .map_err(|message| self.field_error(&span, "resolution", message))?;
-        Ok(Camera {
+        let camera = Camera {
             eye,
             target,
             up,
             fov_y: fov,
             width,
             height,
-        })
+        };
+        // What the renderer derives: every axis finite and non-zero.
+        let b = camera.basis();
+        let axes = [b.forward, b.right, b.up];
+        if axes.iter().any(|a| !a.is_finite() || *a == Vec3::ZERO) {
+            return Err(self.field_error(
+                &span,
+                "eye",
+                format!(
+                    "the camera's basis is not finite (forward {}, right {}, up {})",
+                    vec3(b.forward),
+                    vec3(b.right),
+                    vec3(b.up)
+                ),
+            ));
+        }
+        Ok(camera)
     }
 
-    fn render(&self, r: &Spanned<RenderDesc>) -> Result<RenderSettings, SceneError> {
+    fn render(&self, r: &Sp<RenderDesc>) -> Result<RenderSettings, SceneError> {
         let rd = r.get_ref();
         let d = RenderSettings::default();
         let spp = rd.spp.unwrap_or(d.spp);
@@ -507,7 +652,7 @@ impl Ctx<'_> {
         })
     }
 
-    fn texture(&self, name: &str, t: &Spanned<TextureDesc>) -> Result<Texture, SceneError> {
+    fn texture(&self, name: &str, t: &Sp<TextureDesc>) -> Result<Texture, SceneError> {
         let span = t.span();
         let td = t.get_ref();
         match (&td.file, &td.checker) {
@@ -521,7 +666,7 @@ impl Ctx<'_> {
                 }
                 let path = self.resolve_file(&span, file)?;
                 let img = crate::image::io::read_texture(&path).map_err(|e| {
-                    self.field_error(&span, "file", format!("texture `{name}`: {e}"))
+                    self.field_error(&span, "file", format!("texture {}: {e}", echo(name)))
                 })?;
                 Ok(Texture::Image {
                     width: img.width,
@@ -542,7 +687,10 @@ impl Ctx<'_> {
             }
             _ => Err(self.error_at(
                 span.start,
-                format!("texture `{name}` needs exactly one of `file` or `checker`"),
+                format!(
+                    "texture {} needs exactly one of `file` or `checker`",
+                    echo(name)
+                ),
             )),
         }
     }
@@ -550,7 +698,7 @@ impl Ctx<'_> {
     fn material(
         &self,
         name: &str,
-        m: &Spanned<MaterialDesc>,
+        m: &Sp<MaterialDesc>,
         textures: &BTreeMap<String, u32>,
     ) -> Result<Material, SceneError> {
         let span = m.span();
@@ -562,7 +710,10 @@ impl Ctx<'_> {
                 return Err(self.field_error(
                     &span,
                     "type",
-                    format!("unknown material type `{other}` (known: standard, dielectric)"),
+                    format!(
+                        "unknown material type {} (known: standard, dielectric)",
+                        echo(other)
+                    ),
                 ))
             }
         };
@@ -594,7 +745,7 @@ impl Ctx<'_> {
             return Err(self.field_error(
                 &span,
                 field,
-                format!("material `{name}`: kd + ks + kt = {total} exceeds 1 in some channel (the surface would create energy)"),
+                format!("material {}: kd + ks + kt = {total} exceeds 1 in some channel (the surface would create energy)", echo(name)),
             ));
         }
         let ior = md.ior.unwrap_or(1.5);
@@ -608,7 +759,7 @@ impl Ctx<'_> {
         let emission = self.color(&span, "emission", md.emission, Rgb::ZERO, f32::INFINITY)?;
         let texture = match &md.texture {
             Some(t) => Some(*textures.get(t).ok_or_else(|| {
-                self.field_error(&span, "texture", format!("no texture named `{t}`"))
+                self.field_error(&span, "texture", format!("no texture named {}", echo(t)))
             })?),
             None => None,
         };
@@ -624,7 +775,12 @@ impl Ctx<'_> {
         })
     }
 
-    fn geometry(&self, span: &Range<usize>, sd: &ShapeDesc) -> Result<Geometry, SceneError> {
+    fn geometry(
+        &self,
+        span: &Range<usize>,
+        sd: &ShapeDesc,
+        warnings: &mut Vec<String>,
+    ) -> Result<Geometry, SceneError> {
         let used: &[&str] = match sd.kind.as_str() {
             "sphere" => &["center", "radius"],
             "plane" => &["point", "normal"],
@@ -636,7 +792,10 @@ impl Ctx<'_> {
                 return Err(self.field_error(
                     span,
                     "type",
-                    format!("unknown shape type `{other}` (known: sphere, plane, quad, cuboid, triangle, mesh)"),
+                    format!(
+                    "unknown shape type {} (known: sphere, plane, quad, cuboid, triangle, mesh)",
+                    echo(other)
+                ),
                 ))
             }
         };
@@ -673,7 +832,7 @@ impl Ctx<'_> {
         Ok(match sd.kind.as_str() {
             "sphere" => {
                 let center =
-                    self.finite3(span, "center", sd.center.ok_or_else(|| need("center"))?)?;
+                    self.point3(span, "center", sd.center.ok_or_else(|| need("center"))?)?;
                 let radius = sd.radius.ok_or_else(|| need("radius"))?;
                 if !(radius > 0.0 && radius.is_finite()) {
                     return Err(self.field_error(
@@ -682,13 +841,28 @@ impl Ctx<'_> {
                         format!("must be positive and finite, got {radius}"),
                     ));
                 }
-                Geometry::Sphere(Sphere { center, radius })
+                let sphere = Sphere { center, radius };
+                let b = sphere.bounds();
+                for corner in [b.min, b.max] {
+                    if !within_bounds(corner) {
+                        return Err(self.field_error(
+                            span,
+                            "radius",
+                            format!(
+                                "the sphere's bounds reach past the coordinates luz can use: {}",
+                                outside(corner)
+                            ),
+                        ));
+                    }
+                }
+                Geometry::Sphere(sphere)
             }
             "plane" => {
-                let point = self.finite3(span, "point", sd.point.ok_or_else(|| need("point"))?)?;
+                let point = self.point3(span, "point", sd.point.ok_or_else(|| need("point"))?)?;
                 let normal =
                     self.finite3(span, "normal", sd.normal.ok_or_else(|| need("normal"))?)?;
-                if normal.length_squared() == 0.0 {
+                // Compared, not squared: a normal of 1e-40 is a direction.
+                if normal == Vec3::ZERO {
                     return Err(self.field_error(span, "normal", "must not be zero"));
                 }
                 Geometry::Plane(Plane::new(point, normal))
@@ -704,7 +878,7 @@ impl Ctx<'_> {
                 }
                 let mut p = [Vec3::ZERO; 4];
                 for (i, c) in corners.iter().enumerate() {
-                    p[i] = self.finite3(span, "corners", *c)?;
+                    p[i] = self.point3(span, "corners", *c)?;
                 }
                 let (e1, e2) = (p[1] - p[0], p[3] - p[0]);
                 let off = (p[2] - (p[0] + e1 + e2)).length();
@@ -722,8 +896,8 @@ impl Ctx<'_> {
                 )
             }
             "cuboid" => {
-                let min = self.finite3(span, "min", sd.min.ok_or_else(|| need("min"))?)?;
-                let max = self.finite3(span, "max", sd.max.ok_or_else(|| need("max"))?)?;
+                let min = self.point3(span, "min", sd.min.ok_or_else(|| need("min"))?)?;
+                let max = self.point3(span, "max", sd.max.ok_or_else(|| need("max"))?)?;
                 if !min.cmplt(max).all() {
                     return Err(self.field_error(span, "max", "must exceed `min` on every axis"));
                 }
@@ -740,7 +914,7 @@ impl Ctx<'_> {
                 }
                 let mut positions = Vec::with_capacity(3);
                 for v in vertices {
-                    positions.push(self.finite3(span, "vertices", *v)?);
+                    positions.push(self.point3(span, "vertices", *v)?);
                 }
                 if super::mesh_io::is_degenerate([positions[0], positions[1], positions[2]]) {
                     return Err(self.field_error(
@@ -751,7 +925,15 @@ impl Ctx<'_> {
                 }
                 let uvs = match &sd.uvs {
                     Some(uvs) if uvs.len() == 3 => {
-                        Some(uvs.iter().map(|&u| Vec2::from(u)).collect())
+                        let uvs: Vec<Vec2> = uvs.iter().map(|&u| Vec2::from(u)).collect();
+                        if let Some(uv) = uvs.iter().find(|uv| !uv.is_finite()) {
+                            return Err(self.field_error(
+                                span,
+                                "uvs",
+                                format!("must be finite, got {uv}"),
+                            ));
+                        }
+                        Some(uvs)
                     }
                     Some(uvs) => {
                         return Err(self.field_error(
@@ -771,7 +953,7 @@ impl Ctx<'_> {
             "mesh" => {
                 let file = sd.file.as_ref().ok_or_else(|| need("file"))?;
                 let path = self.resolve_file(span, file)?;
-                let mut mesh = super::mesh_io::load_mesh(&path)
+                let (mut mesh, mut notes) = super::mesh_io::read_mesh(&path)
                     .map_err(|e| self.field_error(span, "file", e.to_string()))?;
                 let scale = match sd.scale {
                     None => Vec3::ONE,
@@ -782,14 +964,47 @@ impl Ctx<'_> {
                     return Err(self.field_error(span, "scale", "must be finite and non-zero"));
                 }
                 let r = self.finite3(span, "rotate", sd.rotate.unwrap_or([0.0; 3]))?;
-                let t = self.finite3(span, "translate", sd.translate.unwrap_or([0.0; 3]))?;
+                let t = self.point3(span, "translate", sd.translate.unwrap_or([0.0; 3]))?;
                 let rotation = Quat::from_rotation_z(r.z.to_radians())
                     * Quat::from_rotation_y(r.y.to_radians())
                     * Quat::from_rotation_x(r.x.to_radians());
-                if sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some() {
+                let transformed =
+                    sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some();
+                if transformed {
                     mesh.transform(&Mat4::from_scale_rotation_translation(scale, rotation, t));
+                }
+                // Every vertex where it lands in the world, the file's own
+                // or transformed, within the coordinates luz can intersect.
+                {
+                    use rayon::prelude::*;
+                    if let Some((i, p)) = mesh
+                        .positions
+                        .par_iter()
+                        .enumerate()
+                        .find_first(|(_, p)| !within_bounds(**p))
+                    {
+                        let field = ["scale", "translate", "rotate"]
+                            .into_iter()
+                            .zip([
+                                sd.scale.is_some(),
+                                sd.translate.is_some(),
+                                sd.rotate.is_some(),
+                            ])
+                            .find_map(|(f, given)| given.then_some(f))
+                            .unwrap_or("file");
+                        let how = if transformed { " once transformed" } else { "" };
+                        return Err(self.field_error(
+                            span,
+                            field,
+                            format!("vertex {i} of the mesh{how}: {}", outside(*p)),
+                        ));
+                    }
+                }
+                if transformed {
                     // A very uneven scale can flatten triangles to lines.
-                    super::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
+                    let before = mesh.indices.len();
+                    let dropped =
+                        super::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
                     if mesh.indices.is_empty() {
                         return Err(self.field_error(
                             span,
@@ -797,6 +1012,14 @@ impl Ctx<'_> {
                             "every triangle of the mesh is degenerate once transformed",
                         ));
                     }
+                    if dropped > 0 {
+                        notes.push(format!(
+                            "dropped {dropped} of {before} triangles, degenerate once transformed"
+                        ));
+                    }
+                }
+                if !notes.is_empty() {
+                    warnings.push(format!("{}: {}", path.display(), notes.join("; ")));
                 }
                 // Spare room after the last vertex lets Embree read luz's
                 // own array instead of copying it (its loads are 16 bytes).
@@ -805,6 +1028,93 @@ impl Ctx<'_> {
             }
             _ => unreachable!("shape kinds are checked above"),
         })
+    }
+}
+
+/// Why a position is refused: where it lies and the bound.
+fn outside(p: Vec3) -> String {
+    format!(
+        "{} lies beyond ±{MAX_COORDINATE:e}, the most luz places anything at on an axis (its f32 intersection tests cube coordinate differences)",
+        vec3(p)
+    )
+}
+
+/// A vector for a message, each component in the shorter of plain and
+/// exponent notation: `(3e38, 0, 0)`.
+fn vec3(v: Vec3) -> String {
+    let c = |x: f32| {
+        let (plain, exp) = (format!("{x}"), format!("{x:e}"));
+        if plain.len() <= exp.len() {
+            plain
+        } else {
+            exp
+        }
+    };
+    format!("({}, {}, {})", c(v.x), c(v.y), c(v.z))
+}
+
+/// The area an emitter's power is the emission times of (0 for a plane,
+/// which is never sampled).
+fn emitting_area(g: &Geometry) -> f32 {
+    match g {
+        Geometry::Sphere(s) => s.area(),
+        Geometry::Quad(q) => q.area(),
+        Geometry::Cuboid(c) => c.area(),
+        Geometry::Mesh(m) => (0..m.triangle_count() as u32)
+            .map(|i| m.triangle_area(i))
+            .sum(),
+        Geometry::Plane(_) => 0.0,
+    }
+}
+
+/// The largest magnitude of a shape's own texture coordinates: 1 for the
+/// bounded shapes and for meshes without uvs (barycentrics), the largest uv
+/// of a mesh that has them, and for a plane, whose coordinates are positions
+/// on it, the farthest a point can lie.
+fn uv_extent(g: &Geometry) -> f32 {
+    match g {
+        Geometry::Plane(_) => 2.0 * MAX_COORDINATE,
+        Geometry::Mesh(Mesh { uvs: Some(uvs), .. }) => uvs
+            .iter()
+            .fold(1.0f32, |m, uv| m.max(uv.abs().max_element())),
+        _ => 1.0,
+    }
+}
+
+/// `message` with every backquoted or double-quoted value longer than
+/// [`echo`] repeats cut short: serde's messages quote the offending key or
+/// string whole, which may be megabytes.
+fn shorten_quoted(message: &str) -> String {
+    let mut out = String::new();
+    let mut rest = message;
+    while let Some(open) = rest.find(['`', '"']) {
+        let quote = rest[open..].chars().next().unwrap_or('`');
+        out.push_str(&rest[..open]);
+        let inner = &rest[open + 1..];
+        match inner.find(quote) {
+            Some(close) => {
+                let value = &inner[..close];
+                if value.len() > 60 {
+                    out.push_str(&echo(value));
+                } else {
+                    out.push(quote);
+                    out.push_str(value);
+                    out.push(quote);
+                }
+                rest = &inner[close + 1..];
+            }
+            None => {
+                out.push(quote);
+                rest = inner;
+                break;
+            }
+        }
+    }
+    out.push_str(rest);
+    // Whatever else it holds, one line of a bounded length.
+    match out.char_indices().nth(400) {
+        Some((cut, _)) => format!("{}…", &out[..cut]),
+        None => out,
     }
 }
 
@@ -830,6 +1140,9 @@ fn unknown_field(message: &str) -> Option<&str> {
 /// The closest expected key to an unknown one, if it is a likely typo.
 fn did_you_mean(message: &str) -> Option<String> {
     let unknown = unknown_field(message)?;
+    if unknown.len() > 64 {
+        return None;
+    }
     let expected = message.split("expected").nth(1)?;
     expected
         .split('`')
@@ -947,6 +1260,65 @@ mod tests {
             "{MINIMAL}[[shapes]]\ntype = \"quad\"\ncorners = [[0,0,0],[1,0,0],[1,1,0.5],[0,1,0]]\n"
         ));
         assert!(e.message.contains("parallelogram"), "{e}");
+    }
+
+    #[test]
+    fn huge_and_tiny_directions_are_directions() {
+        let s = load_str(
+            "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\nup = [0, 1e-30, 0]\n\
+             [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 3e38, 3e38]\n\
+             [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [1e-40, 0, 0]\n",
+            Path::new("d.toml"),
+        )
+        .unwrap();
+        let b = s.camera.basis();
+        assert!(b.up.is_finite() && b.right.is_finite() && b.up.y > 0.0);
+        for (shape, n) in s
+            .shapes
+            .iter()
+            .zip([Vec3::new(0.0, 1.0, 1.0).normalize(), Vec3::X])
+        {
+            let Geometry::Plane(p) = &shape.geometry else {
+                panic!("a plane")
+            };
+            assert!((p.normal - n).length() < 1e-6, "{}", p.normal);
+        }
+    }
+
+    #[test]
+    fn tables_are_never_read_by_position() {
+        let e = err(
+            "environment = [0.25, 99, \"junk\"]\n[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n",
+        );
+        assert!(
+            e.message.contains("`environment`") && e.message.contains("a table"),
+            "{e}"
+        );
+        assert_eq!(e.location.map(|l| l.0), Some(1), "{e}");
+        let e = err("camera = [[0, 1, 3], [0, 1, 0]]\n");
+        assert!(
+            e.message.contains("`camera`") && e.message.contains("a table"),
+            "{e}"
+        );
+        // Inline tables are tables.
+        load_str(
+            "camera = { eye = [0, 1, 3], target = [0, 1, 0] }\nenvironment = { radiance = 0.5 }\n",
+            Path::new("t.toml"),
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn long_values_are_echoed_short() {
+        let long = "y".repeat(1 << 20);
+        for text in [
+            format!("{MINIMAL}{long} = 1\n"),
+            format!("{MINIMAL}fov = \"{long}\"\n"),
+            format!("{MINIMAL}[[shapes]]\ntype = \"{long}\"\n"),
+        ] {
+            let e = err(&text).to_string();
+            assert!(e.len() < 1024, "{} bytes: {}", e.len(), &e[..1024]);
+        }
     }
 
     #[test]

@@ -8,8 +8,14 @@
 //! happen.
 //!
 //! Polygons are fan-triangulated. Elements and properties the renderer does
-//! not use (normals, colours, confidence, ...) are skipped.
+//! not use (normals, colours, confidence, ...) are skipped, and so are
+//! degenerate triangles; both are summed up in one note per file (see
+//! [`read_mesh`]). A file that contradicts its header or the format (data
+//! after the declared elements, a face of two vertices, an index of 0) is an
+//! error with its line or byte offset. A gzipped PLY is inflated no further
+//! than the largest body its header's counts allow.
 
+use crate::echo::echo;
 use crate::geometry::Mesh;
 use crate::location::line_column;
 use crate::math::{Vec2, Vec3};
@@ -47,22 +53,35 @@ pub enum MeshError {
 /// Loads a `.ply`, `.ply.gz`, `.obj` or `.obj.gz` file (gzip is recognised by
 /// its magic bytes, whatever the name).
 pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
-    let data = std::fs::read(path).map_err(|source| MeshError::Io {
+    read_mesh(path).map(|(mesh, _)| mesh)
+}
+
+/// [`load_mesh`], with the notes on what of the file luz did not use (data
+/// it does not read, triangles it dropped, and why): empty for a file read
+/// whole. The path must be a regular file.
+pub fn read_mesh(path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
+    let data = crate::location::read_regular_file(path).map_err(|source| MeshError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    parse_mesh(&data, path)
+    parse_mesh_noted(&data, path)
 }
 
 /// Parses the contents of a mesh file; `path` picks the format by its
 /// extension, as in [`load_mesh`], and names the file in errors.
 pub fn parse_mesh(data: &[u8], path: &Path) -> Result<Mesh, MeshError> {
+    parse_mesh_noted(data, path).map(|(mesh, _)| mesh)
+}
+
+/// [`parse_mesh`] with the notes of [`read_mesh`].
+pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let name = name.strip_suffix(".gz").unwrap_or(&name);
-    let parse: fn(&[u8]) -> Result<Mesh, Fail> = if name.ends_with(".ply") {
+    let is_ply = name.ends_with(".ply");
+    let parse: fn(&[u8]) -> Result<Noted, Fail> = if is_ply {
         parse_ply
     } else if name.ends_with(".obj") {
         parse_obj
@@ -75,14 +94,121 @@ pub fn parse_mesh(data: &[u8], path: &Path) -> Result<Mesh, MeshError> {
     if !data.starts_with(&[0x1f, 0x8b]) {
         return parse(data).map_err(|f| f.at(path));
     }
-    let mut out = Vec::with_capacity(data.len() * 4);
-    flate2::read::MultiGzDecoder::new(data)
-        .read_to_end(&mut out)
-        .map_err(|e| MeshError::Invalid {
-            path: path.to_path_buf(),
-            msg: format!("gzip: {e}"),
+    let gzip = |e: std::io::Error| MeshError::Invalid {
+        path: path.to_path_buf(),
+        msg: format!("gzip: {e}"),
+    };
+    let mut decoder = flate2::read::MultiGzDecoder::new(data);
+    let mut out = Vec::new();
+    if is_ply {
+        inflate_ply(&mut decoder, &mut out).map_err(|e| match e {
+            Inflate::Gzip(e) => gzip(e),
+            Inflate::Fail(f) => f.at(path),
         })?;
+    } else {
+        out.reserve(data.len().saturating_mul(4));
+        decoder.read_to_end(&mut out).map_err(gzip)?;
+    }
     parse(&out).map_err(|f| f.at(path))
+}
+
+/// A mesh with the notes on what of its file luz did not use.
+type Noted = (Mesh, Vec<String>);
+
+/// The most bytes a PLY header may take before `end_header`.
+const MAX_PLY_HEADER: usize = 1 << 20;
+
+/// The most bytes one ascii value (with its separator) may take, for the
+/// bound on an ascii body: `-1.2345678901234567e-123` is 24.
+const MAX_ASCII_VALUE: usize = 64;
+
+enum Inflate {
+    Gzip(std::io::Error),
+    Fail(Fail),
+}
+
+/// Inflates a gzipped PLY into `out`: the header first (at most
+/// [`MAX_PLY_HEADER`] bytes), then no more of the body than its declared
+/// elements can take ([`max_body`]) and one byte: a file that goes on past
+/// that is an error at the byte where the declared data must end, found
+/// before the rest is inflated (a 2 MB file of zeros inflated to 1 GB
+/// before it was refused).
+fn inflate_ply(decoder: &mut impl Read, out: &mut Vec<u8>) -> Result<(), Inflate> {
+    let mut chunk = vec![0u8; 64 << 10];
+    let header = loop {
+        let n = decoder.read(&mut chunk).map_err(Inflate::Gzip)?;
+        out.extend_from_slice(&chunk[..n]);
+        let complete = out
+            .windows(11)
+            .position(|w| w == b"end_header\n" || w == b"end_header\r")
+            .is_some();
+        if n == 0 || complete || out.len() > MAX_PLY_HEADER {
+            // A broken header is reported by the parser, from what is here.
+            match parse_header(out) {
+                Ok(h) => break h,
+                Err(_) => return Ok(()),
+            }
+        }
+    };
+    let limit = header.body.saturating_add(max_body(&header));
+    if out.len() <= limit {
+        let left = (limit - out.len()) as u64 + 1;
+        decoder.take(left).read_to_end(out).map_err(Inflate::Gzip)?;
+    }
+    if out.len() > limit {
+        return Err(Inflate::Fail(trailing(limit, &header.elements, true)));
+    }
+    Ok(())
+}
+
+/// The most bytes a body can hold for the header's counts: per record, the
+/// sizes of its scalars and of its lists at the longest their count type
+/// allows (binary), or [`MAX_ASCII_VALUE`] per value (ascii).
+fn max_body(header: &Header) -> usize {
+    let value = |ty: Ty| match header.format {
+        Format::Ascii => MAX_ASCII_VALUE,
+        _ => ty.size(),
+    };
+    let max_items = |ty: Ty| -> usize {
+        match ty {
+            Ty::I8 => i8::MAX as usize,
+            Ty::U8 => u8::MAX as usize,
+            Ty::I16 => i16::MAX as usize,
+            Ty::U16 => u16::MAX as usize,
+            Ty::I32 => i32::MAX as usize,
+            _ => u32::MAX as usize,
+        }
+    };
+    header.elements.iter().fold(0usize, |total, el| {
+        let record = el.props.iter().fold(0usize, |r, p| match p.kind {
+            Kind::Scalar(ty) => r.saturating_add(value(ty)),
+            Kind::List(ct, it) => r
+                .saturating_add(value(ct))
+                .saturating_add(max_items(ct).saturating_mul(value(it))),
+        });
+        total.saturating_add(record.saturating_mul(el.count))
+    })
+}
+
+/// The error of data after the last element the header declares, at byte
+/// `at` (of the decompressed data when `inflated`).
+fn trailing(at: usize, elements: &[Element], inflated: bool) -> Fail {
+    let declared: Vec<String> = elements
+        .iter()
+        .map(|e| format!("{} {}", e.count, echo(&e.name)))
+        .collect();
+    let why = if inflated {
+        " (decompression stopped here: the counts allow no more)"
+    } else {
+        ""
+    };
+    fail_byte(
+        at,
+        format!(
+            "the data goes on after the last element the header declares ({}){why}",
+            declared.join(", ")
+        ),
+    )
 }
 
 /// Where in a file a failure is.
@@ -143,6 +269,16 @@ fn fail_byte(offset: usize, msg: impl Into<String>) -> Fail {
 /// 1-based column of `word`, a slice of `line`.
 fn column(line: &str, word: &str) -> usize {
     word.as_ptr() as usize - line.as_ptr() as usize + 1
+}
+
+/// A name from the header for a message: itself, or [`echo`]'s shortened
+/// form when long.
+fn short(name: &str) -> std::borrow::Cow<'_, str> {
+    if name.len() <= 60 {
+        name.into()
+    } else {
+        echo(name).into()
+    }
 }
 
 /// A token for an error message: lossy UTF-8, cut short when long.
@@ -317,7 +453,7 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
                         return Err(fail_at(
                             line,
                             at(word),
-                            format!("unsupported PLY format `{}`", other.unwrap_or("")),
+                            format!("unsupported PLY format {}", echo(other.unwrap_or(""))),
                         ))
                     }
                 });
@@ -331,7 +467,11 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
                     fail_at(
                         line,
                         column(text, count),
-                        format!("element `{name}`: expected a count, found `{count}`"),
+                        format!(
+                            "element {}: expected a count, found {}",
+                            echo(name),
+                            echo(count)
+                        ),
                     )
                 })?;
                 elements.push(Element {
@@ -350,7 +490,7 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
                         fail_at(
                             line,
                             at(s),
-                            format!("unknown property type `{}`", s.unwrap_or("")),
+                            format!("unknown property type {}", echo(s.unwrap_or(""))),
                         )
                     })
                 };
@@ -379,7 +519,13 @@ fn parse_header(data: &[u8]) -> Result<Header, Fail> {
                 });
             }
             "end_header" => break,
-            _ => return Err(fail_at(line, 1, format!("unknown header keyword `{kw}`"))),
+            _ => {
+                return Err(fail_at(
+                    line,
+                    1,
+                    format!("unknown header keyword {}", echo(kw)),
+                ))
+            }
         }
     }
     let format = format.ok_or_else(|| fail_at(2, 1, "header has no `format` line"))?;
@@ -509,7 +655,7 @@ fn plan(elements: &[Element], end_line: usize) -> Result<Plan, Fail> {
     })
 }
 
-fn parse_ply(data: &[u8]) -> Result<Mesh, Fail> {
+fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
     let header = parse_header(data)?;
     let Plan {
         roles,
@@ -538,15 +684,50 @@ fn parse_ply(data: &[u8]) -> Result<Mesh, Fail> {
         }
     }
     let triangles = out.indices.len();
-    drop_degenerate(&out.positions, &mut out.indices);
+    let dropped = drop_degenerate(&out.positions, &mut out.indices);
     if out.indices.is_empty() {
         return Err(fail_at(face_line, 1, no_faces(triangles)));
     }
-    Ok(Mesh {
+    // What of the file luz leaves unread.
+    let mut unused = Vec::new();
+    for (i, (el, roles)) in header.elements.iter().zip(&roles).enumerate() {
+        if i != vertex && i != face {
+            unused.push(format!("element {} ({})", echo(&el.name), el.count));
+            continue;
+        }
+        for (p, role) in el.props.iter().zip(roles) {
+            if *role == Role::Skip {
+                unused.push(format!("{} property {}", short(&el.name), echo(&p.name)));
+            }
+        }
+    }
+    let mut notes = Vec::new();
+    if !unused.is_empty() {
+        notes.push(format!("not used: {}", summarize(&unused)));
+    }
+    if dropped > 0 {
+        notes.push(dropped_note(dropped, triangles));
+    }
+    let mesh = Mesh {
         positions: out.positions,
         indices: out.indices,
         uvs: out.uvs,
-    })
+    };
+    Ok((mesh, notes))
+}
+
+/// A list for a note, cut after the first few items.
+fn summarize(items: &[String]) -> String {
+    const SHOWN: usize = 8;
+    let mut s = items[..items.len().min(SHOWN)].join(", ");
+    if items.len() > SHOWN {
+        s.push_str(&format!(" and {} more", items.len() - SHOWN));
+    }
+    s
+}
+
+fn dropped_note(dropped: usize, triangles: usize) -> String {
+    format!("dropped {dropped} of {triangles} triangles, degenerate (no area)")
 }
 
 struct Builder {
@@ -758,7 +939,9 @@ fn ascii_body<'a>(
                     t.next().ok_or_else(|| {
                         t.fail(format!(
                             "file ends early: {} {r} of {}, property `{}` is missing",
-                            el.name, el.count, prop.name
+                            short(&el.name),
+                            el.count,
+                            short(&prop.name)
                         ))
                     })
                 };
@@ -772,8 +955,8 @@ fn ascii_body<'a>(
                         v[c] = parse_float(w, ty).ok_or_else(|| {
                             t.fail(format!(
                                 "{} property `{}`: expected a number, found `{}`",
-                                el.name,
-                                prop.name,
+                                short(&el.name),
+                                short(&prop.name),
                                 show(w)
                             ))
                         })?;
@@ -783,8 +966,8 @@ fn ascii_body<'a>(
                         let n = parse_int(w).filter(|&n| n >= 0).ok_or_else(|| {
                             t.fail(format!(
                                 "{} property `{}`: expected a list length, found `{}`",
-                                el.name,
-                                prop.name,
+                                short(&el.name),
+                                short(&prop.name),
                                 show(w)
                             ))
                         })?;
@@ -794,8 +977,8 @@ fn ascii_body<'a>(
                                 let i = parse_int(w).ok_or_else(|| {
                                     t.fail(format!(
                                         "{} property `{}`: expected an integer, found `{}`",
-                                        el.name,
-                                        prop.name,
+                                        short(&el.name),
+                                        short(&prop.name),
                                         show(w)
                                     ))
                                 })?;
@@ -816,6 +999,10 @@ fn ascii_body<'a>(
                 })?;
             }
         }
+    }
+    if t.next().is_some() {
+        let Fail { msg, .. } = trailing(0, elements, false);
+        return Err(t.fail(msg));
     }
     Ok(())
 }
@@ -873,7 +1060,7 @@ fn binary_body<const BE: bool>(
                 pos,
                 format!(
                     "file ends early: {} {r} of {} is cut off ({} bytes in all)",
-                    el.name,
+                    short(&el.name),
                     el.count,
                     data.len()
                 ),
@@ -949,7 +1136,8 @@ fn binary_body<const BE: bool>(
                                 pos,
                                 format!(
                                     "{} {r}: property `{}` has negative length {n}",
-                                    el.name, p.name
+                                    short(&el.name),
+                                    short(&p.name)
                                 ),
                             ));
                         }
@@ -988,25 +1176,39 @@ fn binary_body<const BE: bool>(
             }
         }
     }
+    if pos < data.len() {
+        let mut f = trailing(pos, elements, false);
+        f.msg = format!("{} bytes: {}", data.len() - pos, f.msg);
+        return Err(f);
+    }
     Ok(())
 }
 
 // ---------------------------------------------------------------------------
 // OBJ
 
-fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
+fn parse_obj(data: &[u8]) -> Result<Noted, Fail> {
     let text = std::str::from_utf8(data).map_err(|e| {
         let (line, column) = line_column(data, e.valid_up_to());
         fail_at(line, column, "the file is not UTF-8 text")
     })?;
+    // tobj drops faces of two vertices and reports bad indices without a
+    // line: one linear pass over the statements first, numbers unparsed.
+    let mut unused = Vec::new();
+    if let Some(f) = scan_obj(text, false, &mut unused) {
+        return Err(f);
+    }
     // Single index, fan-triangulated, points and lines dropped.
     let opts = tobj::GPU_LOAD_OPTIONS;
     // Materials are not used; don't go looking for the .mtl file.
     let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
         Ok((Vec::new(), Default::default()))
     })
-    .map_err(|e| locate_obj_problem(text).unwrap_or_else(|| fail(format!("OBJ: {e}"))))?;
-    let with_uv = models.iter().any(|m| !m.mesh.texcoords.is_empty())
+    .map_err(|e| {
+        scan_obj(text, true, &mut Vec::new()).unwrap_or_else(|| fail(format!("OBJ: {e}")))
+    })?;
+    let any_uv = models.iter().any(|m| !m.mesh.texcoords.is_empty());
+    let with_uv = any_uv
         && models
             .iter()
             .all(|m| m.mesh.texcoords.len() / 2 == m.mesh.positions.len() / 3);
@@ -1032,7 +1234,7 @@ fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
         for t in m.indices.chunks_exact(3) {
             let tri = [t[0], t[1], t[2]];
             if tri.iter().any(|&i| i as usize >= n) {
-                return Err(locate_obj_problem(text)
+                return Err(scan_obj(text, true, &mut Vec::new())
                     .unwrap_or_else(|| fail("OBJ: face vertex index out of range")));
             }
             mesh.indices.push(tri.map(|i| i + base as u32));
@@ -1050,21 +1252,35 @@ fn parse_obj(data: &[u8]) -> Result<Mesh, Fail> {
     if let Some(i) = bad {
         let uv = mesh.uvs.as_ref().map(|u| u[i]);
         let msg = check_finite(mesh.positions[i], uv, i).unwrap_err();
-        return Err(locate_obj_problem(text).unwrap_or_else(|| fail(msg)));
+        return Err(scan_obj(text, true, &mut Vec::new()).unwrap_or_else(|| fail(msg)));
     }
     let triangles = mesh.indices.len();
-    drop_degenerate(&mesh.positions, &mut mesh.indices);
+    let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
     if mesh.indices.is_empty() {
         // tobj drops malformed faces silently: name the first one if any,
         // else point at the end of the file, where faces were still expected.
         let (line, column) = line_column(text.as_bytes(), text.len());
         let at_end = fail_at(line, column, no_faces(triangles));
         return Err(match triangles {
-            0 => locate_obj_problem(text).unwrap_or(at_end),
+            0 => scan_obj(text, true, &mut Vec::new()).unwrap_or(at_end),
             _ => at_end,
         });
     }
-    Ok(mesh)
+    let mut notes = Vec::new();
+    if !unused.is_empty() {
+        let items: Vec<String> = unused
+            .iter()
+            .map(|(kw, n): &(String, usize)| format!("{} ({n})", echo(kw)))
+            .collect();
+        notes.push(format!("not used: {}", summarize(&items)));
+    }
+    if any_uv && !with_uv {
+        notes.push("texture coordinates dropped: not every face has them".into());
+    }
+    if dropped > 0 {
+        notes.push(dropped_note(dropped, triangles));
+    }
+    Ok((mesh, notes))
 }
 
 fn no_faces(triangles: usize) -> String {
@@ -1080,7 +1296,14 @@ fn no_faces(triangles: usize) -> String {
 /// yet intersection tests still report hits on it: the extremes suite
 /// measured zero or random normals and self-hits on both backends when a
 /// mesh kept them.
-pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
+///
+/// A triangle whose f32 cross product underflows to zero (edges of 1e-20)
+/// is degenerate too, whatever its shape: its normal would be zero and the
+/// intersection tests never hit it ([`crate::geometry::has_zero_area`]).
+pub(crate) fn is_degenerate(p @ [a, b, c]: [Vec3; 3]) -> bool {
+    if crate::geometry::has_zero_area(p) {
+        return true;
+    }
     // In f64, so no finite f32 coordinates overflow.
     let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
     let (e1, e2) = (b - a, c - a);
@@ -1089,19 +1312,33 @@ pub(crate) fn is_degenerate([a, b, c]: [Vec3; 3]) -> bool {
 
 /// Drops the degenerate triangles (see [`is_degenerate`]). Most meshes have
 /// none, so a parallel search comes first and the (serial) removal runs
-/// only when it finds one.
-pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) {
+/// only when it finds one. Returns how many it dropped.
+pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) -> usize {
     use rayon::prelude::*;
     let degenerate = |t: &[u32; 3]| is_degenerate(t.map(|i| positions[i as usize]));
+    let before = indices.len();
     if indices.par_iter().with_min_len(4096).any(degenerate) {
         indices.retain(|t| !degenerate(t));
     }
+    before - indices.len()
 }
 
-/// Finds the line of the first malformed or out-of-range `v`, `vt` or `f`
-/// statement, for the error message (`tobj` does not report lines).
-fn locate_obj_problem(text: &str) -> Option<Fail> {
-    let (mut nv, mut nvt) = (0i64, 0i64);
+/// Finds the line of the first malformed statement: a `v` of fewer than 3
+/// numbers, a face of fewer than 3 vertices, an index (of a vertex, texture
+/// coordinate or normal) that is 0 or past those defined so far; with
+/// `numbers`, also a `v` or `vt` number that does not parse or is not
+/// finite (`tobj` reports none of these with a line). Counts the statements
+/// luz does not use into `unused`, by keyword. Linear in the text.
+fn scan_obj(text: &str, numbers: bool, unused: &mut Vec<(String, usize)>) -> Option<Fail> {
+    let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
+    let mut note = |kw: &str| {
+        if let Some(i) = unused.iter().position(|(k, _)| k == kw) {
+            unused[i].1 += 1;
+        } else if unused.len() < 32 {
+            // A file of random keywords must not grow the list without end.
+            unused.push((kw.to_string(), 1));
+        }
+    };
     for (no, line) in text.lines().enumerate() {
         let no = no + 1;
         let mut words = line.split_ascii_whitespace();
@@ -1132,29 +1369,51 @@ fn locate_obj_problem(text: &str) -> Option<Fail> {
         };
         match words.next() {
             Some("v") => {
-                if line.split_ascii_whitespace().count() < 4 {
+                if words.clone().count() < 3 {
                     return Some(fail_at(no, 1, "vertex position needs 3 numbers"));
                 }
-                if let Some(f) = floats(words, "vertex coordinate", 3) {
-                    return Some(f);
+                if numbers {
+                    if let Some(f) = floats(words, "vertex coordinate", 3) {
+                        return Some(f);
+                    }
                 }
                 nv += 1;
             }
             Some("vt") => {
-                if let Some(f) = floats(words, "texture coordinate", 2) {
-                    return Some(f);
+                if numbers {
+                    if let Some(f) = floats(words, "texture coordinate", 2) {
+                        return Some(f);
+                    }
                 }
                 nvt += 1;
             }
+            Some("vn") => {
+                nvn += 1;
+                note("vn");
+            }
             Some("f") => {
-                let corners: Vec<&str> = words.collect();
-                if corners.len() < 3 {
+                if words.clone().count() < 3 {
                     return Some(fail_at(no, 1, "a face needs at least 3 vertices"));
                 }
-                for c in corners {
+                for c in words {
                     let mut parts = c.split('/');
-                    for (what, count) in [("vertex", nv), ("texture coordinate", nvt)] {
-                        let Some(p) = parts.next().filter(|p| !p.is_empty()) else {
+                    for (what, count, required) in [
+                        ("vertex", nv, true),
+                        ("texture coordinate", nvt, false),
+                        ("normal", nvn, false),
+                    ] {
+                        let part = parts.next().filter(|p| !p.is_empty());
+                        let Some(p) = part else {
+                            if required {
+                                return Some(fail_at(
+                                    no,
+                                    column(line, c),
+                                    format!(
+                                        "face: corner `{}` has no vertex index",
+                                        show(c.as_bytes())
+                                    ),
+                                ));
+                            }
                             continue;
                         };
                         let ok = p.parse::<i64>().ok().filter(|&i| {
@@ -1174,6 +1433,7 @@ fn locate_obj_problem(text: &str) -> Option<Fail> {
                     }
                 }
             }
+            Some(kw) if !kw.starts_with('#') => note(kw),
             _ => {}
         }
     }

@@ -76,6 +76,9 @@ pub struct Scene {
     /// and texture it names. Empty for a scene built in code. Outputs are
     /// checked against them, so a render never overwrites its own input.
     pub files: Vec<PathBuf>,
+    /// What the loader noticed but did not refuse (mesh data luz does not
+    /// use, triangles it dropped), one line per mesh; `load` prints them.
+    pub warnings: Vec<String>,
     /// Per material, what its vertices evaluate; derived from `materials`.
     shading: Vec<Shading>,
 }
@@ -108,6 +111,7 @@ impl Scene {
             lights,
             render,
             files: Vec::new(),
+            warnings: Vec::new(),
             shading,
         }
     }

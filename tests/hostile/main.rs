@@ -10,6 +10,7 @@ mod common;
 mod job;
 mod outputs;
 mod parts;
+mod scenes;
 
 use common::temp_dir;
 
