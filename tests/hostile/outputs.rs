@@ -388,3 +388,51 @@ fn a_huge_request_logs_its_eta() {
         .unwrap_or_else(|| panic!("no progress line in: {stderr}"));
     assert!(line.contains("ETA"), "{line}");
 }
+
+/// A folder without write permission. Root writes there anyway, so the test
+/// says it is skipped when the probe it makes itself succeeds.
+#[test]
+fn an_output_in_a_read_only_folder_is_refused_before_rendering() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = temp_dir("read-only");
+    let scene = scene_in(&dir);
+    let locked = dir.join("locked");
+    std::fs::create_dir(&locked).unwrap();
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+    if std::fs::write(locked.join("probe"), b"").is_ok() {
+        eprintln!("skipped: this user writes into read-only folders (root)");
+        return;
+    }
+    let out = locked.join("out.png");
+    let run = luz(&["render", s(&scene), "-o", s(&out), "--quiet"]);
+    refused(&run, &["locked", "does not take new files"]);
+    std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
+/// One resolution limit everywhere: what luz would refuse to merge, it
+/// refuses to render, from the command line and from the scene file alike.
+#[test]
+fn a_resolution_merge_would_refuse_is_refused_before_rendering() {
+    let dir = temp_dir("resolution-limit");
+    let scene = scene_in(&dir);
+    let out = dir.join("wide.exr");
+    let run = luz(&[
+        "render",
+        s(&scene),
+        "--resolution",
+        "40000x2",
+        "-o",
+        s(&out),
+    ]);
+    refused(&run, &["--resolution", "40000x2", "1..=32768"]);
+    let text = std::fs::read_to_string(&scene).unwrap();
+    let wide = dir.join("wide.toml");
+    std::fs::write(
+        &wide,
+        text.replace("resolution = [8, 8]", "resolution = [40000, 2]"),
+    )
+    .unwrap();
+    let run = luz(&["render", s(&wide), "-o", s(&out)]);
+    refused(&run, &["wide.toml:5", "resolution", "1..=32768"]);
+    assert!(!out.exists());
+}
