@@ -11,18 +11,7 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-fn luz() -> Command {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_luz"));
-    // The test must not pick up a batch system's task index.
-    for var in [
-        "SLURM_ARRAY_TASK_ID",
-        "SLURM_ARRAY_TASK_COUNT",
-        "JOB_COMPLETION_INDEX",
-    ] {
-        cmd.env_remove(var);
-    }
-    cmd
-}
+use common::luz_command as luz;
 
 fn run(args: &[&str]) -> Output {
     luz().args(args).output().expect("the luz binary runs")

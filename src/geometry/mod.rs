@@ -77,6 +77,20 @@ pub enum Geometry {
 }
 
 impl Geometry {
+    /// The surface area, which an emitter's power is its emission times;
+    /// `None` for an infinite plane.
+    pub fn area(&self) -> Option<f32> {
+        Some(match self {
+            Geometry::Sphere(s) => s.area(),
+            Geometry::Quad(q) => q.area(),
+            Geometry::Cuboid(c) => c.area(),
+            Geometry::Mesh(m) => (0..m.triangle_count() as u32)
+                .map(|i| m.triangle_area(i))
+                .sum(),
+            Geometry::Plane(_) => return None,
+        })
+    }
+
     /// Number of primitives the backends see (triangles for a mesh).
     pub fn primitive_count(&self) -> usize {
         match self {

@@ -61,14 +61,8 @@ impl LightSampler {
             if !shape.nee || emission.max_element() <= 0.0 {
                 continue;
             }
-            let area = match &shape.geometry {
-                Geometry::Sphere(s) => s.area(),
-                Geometry::Quad(q) => q.area(),
-                Geometry::Cuboid(c) => c.area(),
-                Geometry::Mesh(m) => (0..m.triangle_count() as u32)
-                    .map(|i| m.triangle_area(i))
-                    .sum(),
-                Geometry::Plane(_) => continue,
+            let Some(area) = shape.geometry.area() else {
+                continue;
             };
             if area.is_nan() || area <= 0.0 {
                 continue;

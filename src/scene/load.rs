@@ -463,7 +463,7 @@ impl Ctx<'_> {
             }
             if shape.nee {
                 let power = materials[material as usize].emission.max_element()
-                    * emitting_area(&shape.geometry);
+                    * shape.geometry.area().unwrap_or(0.0);
                 if !power.is_finite() {
                     return Err(self.field_error(
                         &span,
@@ -1051,20 +1051,6 @@ fn vec3(v: Vec3) -> String {
         }
     };
     format!("({}, {}, {})", c(v.x), c(v.y), c(v.z))
-}
-
-/// The area an emitter's power is the emission times of (0 for a plane,
-/// which is never sampled).
-fn emitting_area(g: &Geometry) -> f32 {
-    match g {
-        Geometry::Sphere(s) => s.area(),
-        Geometry::Quad(q) => q.area(),
-        Geometry::Cuboid(c) => c.area(),
-        Geometry::Mesh(m) => (0..m.triangle_count() as u32)
-            .map(|i| m.triangle_area(i))
-            .sum(),
-        Geometry::Plane(_) => 0.0,
-    }
 }
 
 /// The largest magnitude of a shape's own texture coordinates: 1 for the

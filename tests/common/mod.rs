@@ -5,6 +5,20 @@
 use std::path::PathBuf;
 use std::process::{Command, Output};
 
+/// A command running the `luz` binary, without the batch system's task
+/// variables a test must not pick up from the machine it runs on.
+pub fn luz_command() -> Command {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_luz"));
+    for var in [
+        "SLURM_ARRAY_TASK_ID",
+        "SLURM_ARRAY_TASK_COUNT",
+        "JOB_COMPLETION_INDEX",
+    ] {
+        cmd.env_remove(var);
+    }
+    cmd
+}
+
 /// Runs the `luz` binary with `args` and waits for it.
 pub fn luz(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_luz"))

@@ -3,7 +3,7 @@
 //! or deleted by accident, every bad argument exits 2 naming its flag, and a
 //! signal relayed twice is one signal.
 
-use crate::common::temp_dir;
+use crate::common::{luz_command, temp_dir};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -61,15 +61,10 @@ fn image_bytes() -> Vec<u8> {
 }
 
 fn luz(args: &[&str]) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_luz"));
-    for var in [
-        "SLURM_ARRAY_TASK_ID",
-        "SLURM_ARRAY_TASK_COUNT",
-        "JOB_COMPLETION_INDEX",
-    ] {
-        cmd.env_remove(var);
-    }
-    cmd.args(args).output().expect("the luz binary runs")
+    luz_command()
+        .args(args)
+        .output()
+        .expect("the luz binary runs")
 }
 
 fn s(p: &Path) -> &str {
