@@ -103,8 +103,9 @@ pub struct BuildOptions {
 pub enum AccelError {
     #[error("the Embree backend is not compiled into this luz: install Embree 3 (`apt-get install libembree-dev` on Debian 12) and rebuild, or use `--backend rust`")]
     EmbreeMissing,
+    #[cfg(luz_embree)]
     #[error("Embree: {0}")]
-    Embree(String),
+    Embree(#[from] embree::EmbreeError),
 }
 
 /// A built backend: the root shapes `Accel` tests itself (`root`), over

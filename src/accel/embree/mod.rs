@@ -20,12 +20,16 @@
 //! remapping.
 //!
 //! All Embree-3 specifics (layouts, constants, callback conventions) live in
-//! `sys3`; this file uses only its small safe API.
+//! `sys3`; this file uses only its small safe API, whose failures are
+//! [`EmbreeError`]s (`error`, shared by every Embree version's module).
 
+mod error;
 mod sys3;
 
+pub use error::{EmbreeError, ErrorCode, Report};
+
 use self::sys3 as sys;
-use super::{AccelError, BuildOptions, Tree, Work};
+use super::{AccelError, BuildOptions, EmbreeQuality, Tree, Work};
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray};
 use crate::scene::Scene;
@@ -82,60 +86,29 @@ impl EmbreeBackend {
         work: Work,
         config: Option<&str>,
     ) -> Result<Self, AccelError> {
-        let device = sys::Device::new(config).map_err(AccelError::Embree)?;
+        let device = sys::Device::new(config)?;
         let (quality, compact) = options.embree_quality.embree(work);
-        let rtc = device
-            .new_scene(quality, options.embree_robust, compact)
-            .map_err(AccelError::Embree)?;
+        let rtc = device.new_scene(quality, options.embree_robust, compact)?;
         let mut empty = true;
         for (id, shape) in scene.shapes.iter().enumerate() {
             if in_root[id] {
                 continue;
             }
-            let id = u32::try_from(id)
-                .ok()
-                .filter(|&i| i != u32::MAX)
-                .ok_or_else(|| AccelError::Embree("more shapes than Embree has ids".into()))?;
-            let geom = match &shape.geometry {
-                Geometry::Mesh(m) => {
-                    if m.indices.is_empty() {
-                        continue;
-                    }
-                    let n = m.positions.len();
-                    if let Some((t, &i)) = m
-                        .indices
-                        .iter()
-                        .enumerate()
-                        .find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= n).map(|i| (t, i)))
-                    {
-                        return Err(AccelError::Embree(format!(
-                            "shape {id}: triangle {t} refers to vertex {i}, but the mesh has {n} vertices"
-                        )));
-                    }
-                    let spare = m.positions.capacity() > n;
-                    // SAFETY: with spare capacity, the 4 bytes after the
-                    // last vertex are allocated; the arrays live in
-                    // `scene`, which this backend holds and drops after the
-                    // Embree scene.
-                    unsafe { device.new_triangles(&m.positions, spare, &m.indices, quality) }
-                }
-                g => {
-                    if !matches!(g.primitive_bounds(0), Some(b) if b.is_finite()) {
-                        return Err(AccelError::Embree(format!(
-                            "shape {id} ({}) has no finite bounds",
-                            g.name()
-                        )));
-                    }
-                    // SAFETY: `g` lives in `scene`, an `Arc` this backend
-                    // holds and drops after the Embree scene.
-                    unsafe { device.new_user(g as *const Geometry, 1) }
-                }
-            }
-            .map_err(AccelError::Embree)?;
-            device.attach(&rtc, &geom, id).map_err(AccelError::Embree)?;
+            let id = u32::try_from(id).ok().filter(|&i| i != u32::MAX).ok_or(
+                EmbreeError::TooManyShapes {
+                    shapes: scene.shapes.len(),
+                },
+            )?;
+            // SAFETY: the shapes live in `scene`, an `Arc` this backend holds
+            // and drops after the Embree scene.
+            let Some(geom) = (unsafe { geometry_of(&device, id, &shape.geometry, quality)? })
+            else {
+                continue;
+            };
+            device.attach(&rtc, &geom, id)?;
             empty = false;
         }
-        device.commit(&rtc).map_err(AccelError::Embree)?;
+        device.commit(&rtc)?;
         Ok(Self {
             rtc,
             device,
@@ -148,6 +121,57 @@ impl EmbreeBackend {
     pub fn version(&self) -> String {
         self.device.version()
     }
+}
+
+/// Embree's committed geometry of shape `id`, `geometry`; `None` for a mesh
+/// without triangles.
+///
+/// # Safety
+///
+/// `geometry` outlives the geometry returned and every scene it is attached
+/// to.
+unsafe fn geometry_of(
+    device: &sys::Device,
+    id: u32,
+    geometry: &Geometry,
+    quality: EmbreeQuality,
+) -> Result<Option<sys::Geometry>, EmbreeError> {
+    let geom = match geometry {
+        Geometry::Mesh(m) => {
+            if m.indices.is_empty() {
+                return Ok(None);
+            }
+            let n = m.positions.len();
+            let out_of_range = m
+                .indices
+                .iter()
+                .enumerate()
+                .find_map(|(t, tri)| tri.iter().find(|&&i| i as usize >= n).map(|&i| (t, i)));
+            if let Some((triangle, vertex)) = out_of_range {
+                return Err(EmbreeError::VertexOutOfRange {
+                    shape: id,
+                    triangle,
+                    vertex,
+                    vertices: n,
+                });
+            }
+            let spare = m.positions.capacity() > n;
+            // SAFETY: with spare capacity, the 4 bytes after the last vertex
+            // are allocated; the caller vouches for the arrays' lifetime.
+            unsafe { device.new_triangles(&m.positions, spare, &m.indices, quality) }
+        }
+        g => {
+            if !matches!(g.primitive_bounds(0), Some(b) if b.is_finite()) {
+                return Err(EmbreeError::Unbounded {
+                    shape: id,
+                    kind: g.name(),
+                });
+            }
+            // SAFETY: the caller vouches for `g`'s lifetime.
+            unsafe { device.new_user(g as *const Geometry, 1) }
+        }
+    }?;
+    Ok(Some(geom))
 }
 
 /// Version of the linked Embree library, e.g. "3.13.5".
@@ -244,7 +268,9 @@ mod tests {
             Work::of(&Scene::of_geometry(Vec::new())),
             Some("threads=x"),
         ) {
-            Err(AccelError::Embree(m)) => assert!(m.contains("rtcNewDevice"), "{m}"),
+            Err(AccelError::Embree(e @ EmbreeError::Device { .. })) => {
+                assert!(e.to_string().starts_with("rtcNewDevice failed: "), "{e}")
+            }
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("built"),
         }
@@ -258,7 +284,14 @@ mod tests {
             uvs: None,
         })]);
         match build(scene, &[false]) {
-            Err(AccelError::Embree(m)) => assert!(m.contains("vertex 7"), "{m}"),
+            Err(AccelError::Embree(
+                e @ EmbreeError::VertexOutOfRange {
+                    shape: 0,
+                    triangle: 0,
+                    vertex: 7,
+                    vertices: 3,
+                },
+            )) => assert!(e.to_string().contains("refers to vertex 7"), "{e}"),
             Err(e) => panic!("{e}"),
             Ok(_) => panic!("built"),
         }
