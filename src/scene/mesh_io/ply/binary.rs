@@ -131,6 +131,14 @@ fn fixed_vertices<const BE: bool>(
         }
         off += ty.size();
     }
+    // The common layout: one copy into the positions instead of a read per
+    // value, on a little-endian machine.
+    let packed_xyz = [(0, Ty::F32, 0), (4, Ty::F32, 1), (8, Ty::F32, 2)];
+    if !BE && cfg!(target_endian = "little") && stride == 12 && fields == packed_xyz {
+        return out
+            .packed_positions(records)
+            .map_err(|(k, m)| fail_byte(pos + k * stride, m));
+    }
     let all_f32 = fields.iter().all(|f| f.1 == Ty::F32);
     for (k, rec) in records.chunks_exact(stride).enumerate() {
         let mut v = [0f32; 5];
@@ -316,6 +324,47 @@ mod tests {
             assert_eq!(m.indices, vec![[3, 2, 1], [3, 1, 0]], "{ct} {it} {fmt}");
             assert_eq!(m.positions[2], Vec3::new(1.0, 1.0, 0.0));
             assert!(m.uvs.is_none());
+        }
+    }
+
+    /// The packed little-endian x y z layout, read by one copy, reports a
+    /// non-finite vertex as the per-value path does for big endian.
+    #[test]
+    fn packed_positions_name_the_vertex() {
+        for be in [false, true] {
+            let fmt = if be { "big" } else { "little" };
+            let mut data = format!(
+                "ply\nformat binary_{fmt}_endian 1.0\nelement vertex 3\nproperty float x\n\
+                 property float y\nproperty float z\nelement face 1\n\
+                 property list uchar int vertex_indices\nend_header\n"
+            )
+            .into_bytes();
+            let body = data.len();
+            let mut put = |b: &[u8]| {
+                let mut b = b.to_vec();
+                if be {
+                    b.reverse();
+                }
+                data.extend_from_slice(&b);
+            };
+            for p in [[0f32, 0., 0.], [1., 0., 0.], [f32::NAN, 1., 0.]] {
+                for c in p {
+                    put(&c.to_le_bytes());
+                }
+            }
+            put(&[3]);
+            for i in [0i32, 1, 2] {
+                put(&i.to_le_bytes());
+            }
+            let e = err("p.ply", &data);
+            assert_eq!(
+                e,
+                format!(
+                    ": byte {}: vertex 2: coordinates must be finite, got (NaN, 1, 0)",
+                    body + 24
+                ),
+                "{fmt}"
+            );
         }
     }
 

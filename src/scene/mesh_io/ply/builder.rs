@@ -36,6 +36,25 @@ impl Builder {
         Ok(())
     }
 
+    /// Appends the vertices `records`, x y z as little-endian f32 and nothing
+    /// else, when there are no texture coordinates; a failure names the
+    /// vertex by its place in `records`.
+    pub(super) fn packed_positions(&mut self, records: &[u8]) -> Result<(), (usize, String)> {
+        debug_assert!(self.uvs.is_none() && records.len().is_multiple_of(12));
+        let first = self.positions.len();
+        self.positions
+            .resize(first + records.len() / 12, Vec3::ZERO);
+        let added: &mut [u8] = bytemuck::cast_slice_mut(&mut self.positions[first..]);
+        added.copy_from_slice(records);
+        match self.positions[first..].iter().position(|p| !p.is_finite()) {
+            Some(k) => Err((
+                k,
+                check_finite(self.positions[first + k], None, first + k).unwrap_err(),
+            )),
+            None => Ok(()),
+        }
+    }
+
     #[inline]
     pub(super) fn index(&mut self, i: i64, face: usize) -> Result<(), String> {
         if i < 0 || i >= self.nv as i64 {
