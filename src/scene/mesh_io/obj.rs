@@ -1,0 +1,160 @@
+//! Wavefront OBJ through `tobj`, its objects merged into one mesh, with
+//! the errors `tobj` reports without a line located by [`scan_obj`].
+
+use super::checks::{check_finite, drop_degenerate, dropped_note, no_faces, summarize};
+use super::fail::{fail, fail_at, Fail};
+use super::obj_scan::scan_obj;
+use super::Noted;
+use crate::echo::echo;
+use crate::geometry::Mesh;
+use crate::location::line_column;
+use crate::math::{Vec2, Vec3};
+
+pub(super) fn parse_obj(data: &[u8]) -> Result<Noted, Fail> {
+    let text = std::str::from_utf8(data).map_err(|e| {
+        let (line, column) = line_column(data, e.valid_up_to());
+        fail_at(line, column, "the file is not UTF-8 text")
+    })?;
+    // tobj drops faces of two vertices and reports bad indices without a
+    // line: one linear pass over the statements first, numbers unparsed.
+    let mut unused = Vec::new();
+    if let Some(f) = scan_obj(text, false, &mut unused) {
+        return Err(f);
+    }
+    // Single index, fan-triangulated, points and lines dropped.
+    let opts = tobj::GPU_LOAD_OPTIONS;
+    // Materials are not used; don't go looking for the .mtl file.
+    let (models, _) = tobj::load_obj_buf(&mut text.as_bytes(), &opts, |_| {
+        Ok((Vec::new(), Default::default()))
+    })
+    .map_err(|e| located(text, || fail(format!("OBJ: {e}"))))?;
+    let any_uv = models.iter().any(|m| !m.mesh.texcoords.is_empty());
+    let with_uv = any_uv
+        && models
+            .iter()
+            .all(|m| m.mesh.texcoords.len() / 2 == m.mesh.positions.len() / 3);
+    let mut mesh = merge(text, &models, with_uv)?;
+    check_all_finite(text, &mesh)?;
+    let triangles = mesh.indices.len();
+    let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
+    if mesh.indices.is_empty() {
+        // tobj drops malformed faces silently: name the first one if any,
+        // else point at the end of the file, where faces were still expected.
+        let (line, column) = line_column(text.as_bytes(), text.len());
+        let at_end = fail_at(line, column, no_faces(triangles));
+        return Err(match triangles {
+            0 => scan_obj(text, true, &mut Vec::new()).unwrap_or(at_end),
+            _ => at_end,
+        });
+    }
+    let mut notes = Vec::new();
+    if !unused.is_empty() {
+        let items: Vec<String> = unused
+            .iter()
+            .map(|(kw, n): &(String, usize)| format!("{} ({n})", echo(kw)))
+            .collect();
+        notes.push(format!("not used: {}", summarize(&items)));
+    }
+    if any_uv && !with_uv {
+        notes.push("texture coordinates dropped: not every face has them".into());
+    }
+    if dropped > 0 {
+        notes.push(dropped_note(dropped, triangles));
+    }
+    Ok((mesh, notes))
+}
+
+/// The failure at the first malformed statement of `text` that
+/// [`scan_obj`] finds with its numbers parsed, or `otherwise`'s when none.
+fn located(text: &str, otherwise: impl FnOnce() -> Fail) -> Fail {
+    scan_obj(text, true, &mut Vec::new()).unwrap_or_else(otherwise)
+}
+
+/// One mesh of `tobj`'s models, each indexing its own vertices, with
+/// texture coordinates when `with_uv`.
+fn merge(text: &str, models: &[tobj::Model], with_uv: bool) -> Result<Mesh, Fail> {
+    let mut mesh = Mesh {
+        uvs: with_uv.then(Vec::new),
+        ..Default::default()
+    };
+    for m in models {
+        let m = &m.mesh;
+        let base = mesh.positions.len();
+        let n = m.positions.len() / 3;
+        if base + n > u32::MAX as usize {
+            return Err(fail("too many vertices for 32-bit indices"));
+        }
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|p| Vec3::new(p[0], p[1], p[2])),
+        );
+        if let Some(uvs) = &mut mesh.uvs {
+            uvs.extend(m.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], t[1])));
+        }
+        for t in m.indices.chunks_exact(3) {
+            let tri = [t[0], t[1], t[2]];
+            if tri.iter().any(|&i| i as usize >= n) {
+                return Err(located(text, || {
+                    fail("OBJ: face vertex index out of range")
+                }));
+            }
+            mesh.indices.push(tri.map(|i| i + base as u32));
+        }
+    }
+    Ok(mesh)
+}
+
+/// Fails at the first vertex with a coordinate that is not finite.
+fn check_all_finite(text: &str, mesh: &Mesh) -> Result<(), Fail> {
+    let bad = mesh
+        .positions
+        .iter()
+        .position(|p| !p.is_finite())
+        .or_else(|| {
+            mesh.uvs
+                .as_ref()
+                .and_then(|uvs| uvs.iter().position(|t| !t.is_finite()))
+        });
+    if let Some(i) = bad {
+        let uv = mesh.uvs.as_ref().map(|u| u[i]);
+        let msg = check_finite(mesh.positions[i], uv, i).unwrap_err();
+        return Err(located(text, || fail(msg)));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::math::{Vec2, Vec3};
+    use crate::scene::mesh_io::test_support::load_str;
+
+    #[test]
+    fn obj_with_uvs_merged_across_objects() {
+        let text = "mtllib missing.mtl\no a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+                    vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n\
+                    o b\nv 0 0 1\nv 1 0 1\nv 1 1 1\nvt 0.5 0.5\nf -3/1 -2/2 -1/5\n";
+        let m = load_str("q.obj", text).unwrap();
+        assert_eq!(m.indices.len(), 3);
+        assert_eq!(m.positions.len(), 7);
+        let uvs = m.uvs.as_ref().expect("uvs");
+        assert_eq!(uvs.len(), 7);
+        for t in &m.indices {
+            for &i in t {
+                assert!((i as usize) < m.positions.len());
+            }
+        }
+        // The second object's triangle refers to its own vertices.
+        let [a, b, c] = m.indices[2];
+        assert_eq!(m.positions[a as usize], Vec3::new(0.0, 0.0, 1.0));
+        assert_eq!(m.positions[b as usize], Vec3::new(1.0, 0.0, 1.0));
+        assert_eq!(m.positions[c as usize], Vec3::new(1.0, 1.0, 1.0));
+        assert_eq!(uvs[c as usize], Vec2::new(0.5, 0.5));
+        // Fan triangulation of the quad keeps its area.
+        let area: f32 = (0..2).map(|i| m.triangle_area(i)).sum();
+        assert!((area - 1.0).abs() < 1e-6);
+        // Without vt on every vertex there are no uvs.
+        let m = load_str("n.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n").unwrap();
+        assert!(m.uvs.is_none());
+    }
+}
