@@ -14,6 +14,7 @@ use luz::job::{
     WriteError,
 };
 use luz::render::Progress;
+use luz::sampling::SamplerKind;
 use luz::scene::Scene;
 use luz::study::{ReferenceSource, Study, StudyOptions, Vary};
 use std::io::IsTerminal;
@@ -170,8 +171,9 @@ struct StudyArgs {
     backends: Vec<BackendKind>,
     /// What to vary, every combination: nee (area lights; point lights are
     /// always sampled), russian-roulette, max-depth, embree-quality,
-    /// embree-robust. A varied setting replaces its option (--max-depth,
-    /// --russian-roulette, --embree-quality, --embree-robust).
+    /// embree-robust, sampler. A varied setting replaces its option
+    /// (--max-depth, --russian-roulette, --embree-quality, --embree-robust,
+    /// --sampler).
     #[arg(long, value_delimiter = ',')]
     vary: Vec<Vary>,
     /// Depths of `--vary max-depth` (default 3,5,8).
@@ -209,6 +211,10 @@ struct SettingsArgs {
     /// Russian roulette over the lobes: on or off.
     #[arg(long, value_parser = parse_on_off)]
     russian_roulette: Option<bool>,
+    /// Where samples' numbers come from: sobol (Owen-scrambled Sobol'
+    /// points, the default) or independent (PCG32).
+    #[arg(long)]
+    sampler: Option<SamplerKind>,
     /// Worker threads (default: all cores; at most 4096).
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..=4096))]
     threads: Option<u16>,
@@ -244,6 +250,7 @@ impl SettingsArgs {
             max_depth: self.max_depth,
             seed: self.seed,
             russian_roulette: self.russian_roulette,
+            sampler: self.sampler,
             resolution: self.resolution,
         }
     }
