@@ -123,11 +123,10 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             if depth == max_depth {
                 break;
             }
-            // The vertex's numbers, in dimension order (`Dimension`).
+            // The vertex's numbers come in dimension order (`Dimension`).
             let vertex = depth - 1;
-            let u_lobe = sampler.get_1d(vertex, Dimension::Lobe);
             let Some(Scatter { lobe, p, k }) =
-                self.choose_lobe(shading.lobes, material, &hit, &sp, cos_o, u_lobe)
+                self.choose_lobe(shape.material, &hit, &sp, cos_o, sampler, vertex)
             else {
                 break;
             };
@@ -176,24 +175,33 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     }
 
     /// Chooses the lobe followed at a vertex; `None` when the path ends
-    /// there (absorption, or nothing left to scatter), for `u` in [0, 1).
-    /// The caller draws `u` whatever the material, so the random stream
-    /// does not depend on which of the two paths evaluated the choice.
+    /// there (absorption, or nothing left to scatter). A diffuse-only
+    /// material takes a number from the sampler as a mixed one does (and
+    /// skips it when the diffuse lobe is certain), so the independent stream
+    /// does not depend on which of the two evaluated the choice.
     #[inline]
     fn choose_lobe(
         &self,
-        lobes: Lobes,
-        material: &Material,
+        material_id: u32,
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
         cos_o: f32,
-        u: f32,
+        sampler: &mut Sampler,
+        vertex: u32,
     ) -> Option<Scatter> {
-        let Lobes::Diffuse { weight } = lobes else {
+        let material = &self.scene.materials[material_id as usize];
+        let Lobes::Diffuse { weight } = self.scene.shading(material_id).lobes else {
+            let u = sampler.get_1d(vertex, Dimension::Lobe);
             return self.choose_mixed_lobe(material, hit, sp, cos_o, u);
         };
         let p = weight * self.lobe_scale(weight)?;
-        (u < p).then_some(Scatter {
+        let chosen = if p >= 1.0 {
+            sampler.skip_1d();
+            true
+        } else {
+            sampler.get_1d(vertex, Dimension::Lobe) < p
+        };
+        chosen.then_some(Scatter {
             lobe: Lobe::Diffuse,
             p,
             k: material.kd,
@@ -287,7 +295,12 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         }
         if !scene.lights.is_empty() {
             let vertex = depth - 1;
-            let u_pick = sampler.get_1d(vertex, Dimension::LightPick);
+            let u_pick = if scene.lights.picks() {
+                sampler.get_1d(vertex, Dimension::LightPick)
+            } else {
+                sampler.skip_1d();
+                0.0
+            };
             let u = sampler.get_2d(vertex, Dimension::LightPoint);
             if let Some(ls) = scene.lights.sample(&scene.shapes, sp.p, u_pick, u) {
                 let w = ls.point.p - sp.p;

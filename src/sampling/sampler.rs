@@ -77,6 +77,8 @@ pub enum Sampler {
 pub struct SobolSample {
     pixel: u64,
     index: u32,
+    /// `index` with its bits reversed, as every dimension's shuffle takes it.
+    reversed: u32,
 }
 
 impl Sampler {
@@ -86,6 +88,7 @@ impl Sampler {
             SamplerKind::Sobol => Self::Sobol(SobolSample {
                 pixel: pixel_key(seed, x, y),
                 index: sample,
+                reversed: sample.reverse_bits(),
             }),
         }
     }
@@ -106,6 +109,17 @@ impl Sampler {
         match self {
             Self::Independent(rng) => rng.next_f32(),
             Self::Sobol(s) => s.get_1d(slot(vertex, dim)),
+        }
+    }
+
+    /// A 1D decision the integrator does not need here (one lobe, one
+    /// emitter). The independent stream still takes its number, so its
+    /// order, and its images, stay those of before; Sobol' dimensions are
+    /// addressed, not read in order, so nothing is computed.
+    #[inline]
+    pub fn skip_1d(&mut self) {
+        if let Self::Independent(rng) = self {
+            rng.next_f32();
         }
     }
 
@@ -161,7 +175,7 @@ impl SobolSample {
             return sobol::to_unit(self.hashed(slot) as u32);
         }
         let h = self.slot_hash(slot);
-        sobol::to_unit(sobol::point_1d(self.index, h as u32, (h >> 32) as u32))
+        sobol::to_unit(sobol::point_1d(self.reversed, h as u32, (h >> 32) as u32))
     }
 
     #[inline]
@@ -174,9 +188,11 @@ impl SobolSample {
         let seeds = Seeds {
             shuffle: h as u32,
             x: (h >> 32) as u32,
-            y: splitmix64(h) as u32,
+            // One multiply by an odd constant mixes every bit of `h` into
+            // the high half: a third seed for the price of one.
+            y: (h.wrapping_mul(SPREAD) >> 32) as u32,
         };
-        let (x, y) = sobol::point_2d(self.index, seeds);
+        let (x, y) = sobol::point_2d(self.reversed, seeds);
         Vec2::new(sobol::to_unit(x), sobol::to_unit(y))
     }
 }
@@ -189,7 +205,9 @@ mod tests {
 
     /// The 2D decisions of the camera and of vertices near and at the end of
     /// the covered ones, each as a function of the sample index.
-    fn pairs() -> Vec<(&'static str, fn(&mut Sampler) -> Vec2)> {
+    type TwoD = fn(&mut Sampler) -> Vec2;
+
+    fn pairs() -> Vec<(&'static str, TwoD)> {
         vec![
             ("camera", |s| s.camera()),
             ("light point 0", |s| s.get_2d(0, Dimension::LightPoint)),
@@ -201,7 +219,7 @@ mod tests {
         ]
     }
 
-    fn points(seed: u64, x: u32, y: u32, n: u32, f: fn(&mut Sampler) -> Vec2) -> Vec<Vec2> {
+    fn points(seed: u64, x: u32, y: u32, n: u32, f: TwoD) -> Vec<Vec2> {
         (0..n)
             .map(|i| f(&mut Sampler::for_sample(SOBOL, seed, x, y, i)))
             .collect()

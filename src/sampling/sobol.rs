@@ -35,13 +35,13 @@ fn laine_karras(mut v: u32, seed: u32) -> u32 {
     v
 }
 
-/// Nested uniform scramble of the 32-bit fraction `v` (most significant
-/// bit first). On a sample index it is the shuffle: bit j is flipped by a
-/// function of the bits above it, so the indices below 2^m go to one aligned
-/// block of 2^m.
+/// The shuffled index of the sample index whose bits, reversed, are
+/// `reversed` (reversed once per sample by the caller, not once per
+/// dimension). In the index, bit j is flipped by a function of the bits
+/// above it, so the indices below 2^m go to one aligned block of 2^m.
 #[inline]
-pub fn owen_scramble(v: u32, seed: u32) -> u32 {
-    laine_karras(v.reverse_bits(), seed).reverse_bits()
+fn shuffle(reversed: u32, seed: u32) -> u32 {
+    laine_karras(reversed, seed).reverse_bits()
 }
 
 /// Direction numbers of a Sobol' dimension as 32-bit fractions, column k
@@ -118,11 +118,11 @@ pub struct Seeds {
     pub y: u32,
 }
 
-/// Point `index` of the shuffled, scrambled (0,2)-sequence, as 32-bit
-/// fractions.
+/// The point of sample index `reversed.reverse_bits()` in the shuffled,
+/// scrambled (0,2)-sequence, as 32-bit fractions.
 #[inline]
-pub fn point_2d(index: u32, seeds: Seeds) -> (u32, u32) {
-    let i = owen_scramble(index, seeds.shuffle);
+pub fn point_2d(reversed: u32, seeds: Seeds) -> (u32, u32) {
+    let i = shuffle(reversed, seeds.shuffle);
     // Dimension 0 is reverse_bits(i); scrambling reverses it back first.
     let x = laine_karras(i, seeds.x).reverse_bits();
     let [b0, b1, b2, b3] = i.to_le_bytes();
@@ -132,11 +132,12 @@ pub fn point_2d(index: u32, seeds: Seeds) -> (u32, u32) {
     (x, y)
 }
 
-/// Point `index` of the shuffled, scrambled van der Corput sequence: a
-/// (0,1)-sequence, stratified in every power-of-two prefix.
+/// The point of sample index `reversed.reverse_bits()` in the shuffled,
+/// scrambled van der Corput sequence: a (0,1)-sequence, stratified in every
+/// power-of-two prefix.
 #[inline]
-pub fn point_1d(index: u32, shuffle: u32, scramble: u32) -> u32 {
-    laine_karras(owen_scramble(index, shuffle), scramble).reverse_bits()
+pub fn point_1d(reversed: u32, shuffle_seed: u32, scramble: u32) -> u32 {
+    laine_karras(shuffle(reversed, shuffle_seed), scramble).reverse_bits()
 }
 
 /// A 32-bit fraction as an f32 in [0, 1), rounded down to 24 bits.
@@ -219,7 +220,8 @@ mod tests {
         for seed in [3u32, 0x9e37_79b9] {
             for m in 0..10 {
                 let n = 1u32 << m;
-                let mut shuffled: Vec<u32> = (0..n).map(|i| owen_scramble(i, seed)).collect();
+                let mut shuffled: Vec<u32> =
+                    (0..n).map(|i| shuffle(i.reverse_bits(), seed)).collect();
                 shuffled.sort_unstable();
                 let start = shuffled[0];
                 assert_eq!(start % n, 0, "aligned");
