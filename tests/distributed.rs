@@ -67,17 +67,24 @@ fn assert_input_error(out: &Output, needle: &str, output: &Path) {
 
 #[test]
 fn merged_tasks_equal_the_single_run() {
-    let dir = temp_dir("merge");
+    for sampler in ["independent", "sobol"] {
+        merged_tasks_equal_the_single_run_with(sampler);
+    }
+}
+
+fn merged_tasks_equal_the_single_run_with(sampler: &str) {
+    let dir = temp_dir(&format!("merge-{sampler}"));
     let full = dir.join("full.exr");
-    ok(render(&full, 10, &[]));
+    ok(render(&full, 10, &["--sampler", sampler]));
     // Three tasks of 10 samples: shares of 3, 3 and 4, merged in any order.
     let parts: Vec<PathBuf> = (0..3).map(|i| dir.join(format!("part{i}.exr"))).collect();
     for (i, p) in parts.iter().enumerate() {
         let index = i.to_string();
+        let task = ["--task-index", &index, "--task-count", "3"];
         ok(render(
             p,
             10,
-            &["--task-index", &index, "--task-count", "3"],
+            &[&task[..], &["--sampler", sampler]].concat(),
         ));
     }
     assert_eq!(read(&parts[2]).meta.ranges, vec![6..10]);
@@ -94,7 +101,10 @@ fn merged_tasks_equal_the_single_run() {
     for (pa, pb) in ia.pixels.iter().zip(&ib.pixels) {
         for c in 0..3 {
             let tolerance = pb[c].abs() * f32::EPSILON;
-            assert!((pa[c] - pb[c]).abs() <= tolerance, "{pa} vs {pb}");
+            assert!(
+                (pa[c] - pb[c]).abs() <= tolerance,
+                "{sampler}: {pa} vs {pb}"
+            );
         }
     }
     assert!(ib.mean().x > 0.01, "the test scene is not black");
@@ -118,6 +128,16 @@ fn merge_refuses_foreign_overlapping_missing_and_corrupt_parts() {
         8,
         &["--samples", "4..8", "--max-depth", "2"],
     ));
+    // a.exr has the default sampler; the other is another render.
+    let other = match luz::sampling::SamplerKind::default() {
+        luz::sampling::SamplerKind::Sobol => "independent",
+        luz::sampling::SamplerKind::Independent => "sobol",
+    };
+    ok(render(
+        &p("sampler.exr"),
+        8,
+        &["--samples", "4..8", "--sampler", other],
+    ));
     let merge = |parts: &[&str], extra: &[&str]| {
         let mut args = vec!["merge", "-o", out.to_str().unwrap()];
         args.extend(extra);
@@ -128,6 +148,11 @@ fn merge_refuses_foreign_overlapping_missing_and_corrupt_parts() {
 
     assert_input_error(&merge(&["a.exr", "seed.exr"], &[]), "seed 9 differs", &out);
     assert_input_error(&merge(&["a.exr", "depth.exr"], &[]), "luz:sceneHash", &out);
+    assert_input_error(
+        &merge(&["a.exr", "sampler.exr"], &[]),
+        "luz:sceneHash",
+        &out,
+    );
     assert_input_error(
         &merge(&["a.exr", "overlap.exr"], &[]),
         "both hold samples 3..4",
@@ -224,6 +249,10 @@ fn bad_ranges_and_tasks_are_input_errors() {
     assert_input_error(&out, "pass --task-count", &png);
 }
 
+/// The checkpoint tests' sampler, named so that they hold whatever the
+/// default: resuming must be exact for Sobol' points too.
+const CHECKPOINT_SAMPLER: [&str; 2] = ["--sampler", "sobol"];
+
 /// Starts a long render that checkpoints often, and waits for its first
 /// checkpoint.
 fn start_checkpointing(dir: &Path, spp: u32) -> (Child, PathBuf, PathBuf) {
@@ -232,6 +261,7 @@ fn start_checkpointing(dir: &Path, spp: u32) -> (Child, PathBuf, PathBuf) {
     let child = luz()
         .args(["render", &scene(), "--resolution", "24x24", "--quiet"])
         .args(["--spp", &spp.to_string(), "--checkpoint-every", "20ms"])
+        .args(CHECKPOINT_SAMPLER)
         .arg("-o")
         .arg(&out)
         .stderr(Stdio::piped())
@@ -249,7 +279,8 @@ const LONG_SPP: u32 = 3000;
 
 fn straight_run(dir: &Path) -> Part {
     let out = dir.join("straight.exr");
-    ok(render(&out, LONG_SPP, &["--checkpoint-every", "off"]));
+    let args = [&["--checkpoint-every", "off"][..], &CHECKPOINT_SAMPLER].concat();
+    ok(render(&out, LONG_SPP, &args));
     read(&out)
 }
 
@@ -267,7 +298,11 @@ fn a_killed_render_resumes_to_the_straight_run_bit_for_bit() {
     assert!(!out.exists());
 
     let cp = checkpoint.to_str().unwrap();
-    ok(render(&out, LONG_SPP, &["--resume", cp]));
+    ok(render(
+        &out,
+        LONG_SPP,
+        &[&["--resume", cp][..], &CHECKPOINT_SAMPLER].concat(),
+    ));
     assert_eq!(read(&out), straight_run(&dir));
     assert!(
         !checkpoint.exists(),

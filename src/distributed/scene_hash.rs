@@ -14,7 +14,8 @@ use xxhash_rust::xxh3::Xxh3;
 
 /// A hash of everything in `scene` that changes the value of a sample:
 /// camera (resolution included), shapes, meshes, textures, materials,
-/// lights, environment, maximum depth and Russian roulette, but not the
+/// lights, environment, maximum depth, Russian roulette and the sampler
+/// (whose samples of one index differ), but not the
 /// seed (recorded on its own) nor the sample count (parts of one render
 /// differ in it). It hashes the loaded scene, so meshes and textures count
 /// by content and the scene file's comments and formatting do not count at
@@ -32,13 +33,14 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         })
         .collect();
     h.text(format_args!(
-        "{:?} {:?} {:?} {:?} max_depth {} rr {}",
+        "{:?} {:?} {:?} {:?} max_depth {} rr {} sampler {}",
         scene.camera,
         materials,
         scene.point_lights,
         scene.environment,
         r.max_depth,
-        r.russian_roulette
+        r.russian_roulette,
+        r.sampler.name()
     ));
     for texture in &scene.textures {
         match texture {
@@ -114,6 +116,7 @@ mod tests {
     use super::*;
     use crate::geometry::{Mesh, Sphere};
     use crate::math::{Vec2, Vec3};
+    use crate::sampling::SamplerKind;
     use crate::scene::{Camera, Shape};
 
     fn scene() -> Scene {
@@ -174,7 +177,7 @@ mod tests {
         let base = scene_hash(&scene());
         assert_eq!(base, scene_hash(&scene()), "the hash must be stable");
         type Change = (&'static str, fn(&mut Scene));
-        let changes: [Change; 10] = [
+        let changes: [Change; 11] = [
             ("a vertex", |s| mesh(s).positions[1].x = 1.5),
             ("an index", |s| mesh(s).indices[0] = [0, 2, 1]),
             ("a uv", |s| mesh(s).uvs.as_mut().unwrap()[2].y = 0.5),
@@ -189,6 +192,12 @@ mod tests {
             ("a material", |s| s.materials[0].kd = Vec3::splat(0.7)),
             ("the resolution", |s| s.camera.width = 16),
             ("the maximum depth", |s| s.render.max_depth = 3),
+            ("the sampler", |s| {
+                s.render.sampler = match s.render.sampler {
+                    SamplerKind::Sobol => SamplerKind::Independent,
+                    SamplerKind::Independent => SamplerKind::Sobol,
+                }
+            }),
             ("the environment", |s| s.environment = Some(Vec3::ONE)),
         ];
         for (what, change) in changes {

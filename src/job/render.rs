@@ -11,6 +11,7 @@ use crate::distributed::passes::{render_passes, Outcome};
 use crate::distributed::task::{self, Task};
 use crate::image::io::{self as imageio, WriteOptions};
 use crate::render::{Film, Progress, RenderOptions, RenderStats};
+use crate::sampling::SamplerKind;
 use crate::scene::{Scene, SceneError};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -23,6 +24,7 @@ pub struct Overrides {
     pub max_depth: Option<u32>,
     pub seed: Option<u64>,
     pub russian_roulette: Option<bool>,
+    pub sampler: Option<SamplerKind>,
     pub resolution: Option<(u32, u32)>,
 }
 
@@ -39,6 +41,7 @@ impl Overrides {
         settings.max_depth = self.max_depth.unwrap_or(settings.max_depth);
         settings.seed = self.seed.unwrap_or(settings.seed);
         settings.russian_roulette = self.russian_roulette.unwrap_or(settings.russian_roulette);
+        settings.sampler = self.sampler.unwrap_or(settings.sampler);
         Ok(scene)
     }
 }

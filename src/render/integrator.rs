@@ -20,7 +20,7 @@ use crate::geometry::{PreliminaryHit, SurfacePoint};
 use crate::math::{
     fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
 };
-use crate::sampling::{cosine_hemisphere, power_heuristic, Rng};
+use crate::sampling::{cosine_hemisphere, power_heuristic, Dimension, Sampler};
 use crate::scene::{Lobes, Material, Scene};
 use std::f32::consts::FRAC_1_PI;
 
@@ -82,7 +82,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     }
 
     /// Radiance arriving along the camera ray `ray` (unit direction).
-    pub fn li(&self, mut ray: Ray, rng: &mut Rng, counts: &mut RayCounts) -> Rgb {
+    pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, counts: &mut RayCounts) -> Rgb {
         let scene = self.scene;
         let max_depth = self.settings.max_depth;
         let mut radiance = Rgb::ZERO;
@@ -123,8 +123,10 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             if depth == max_depth {
                 break;
             }
+            // The vertex's numbers come in dimension order (`Dimension`).
+            let vertex = depth - 1;
             let Some(Scatter { lobe, p, k }) =
-                self.choose_lobe(shading.lobes, material, &hit, &sp, cos_o, rng)
+                self.choose_lobe(shape.material, &hit, &sp, cos_o, sampler, vertex)
             else {
                 break;
             };
@@ -136,9 +138,10 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             let wi = match lobe {
                 Lobe::Diffuse => {
                     beta /= p;
-                    radiance += beta * self.direct(&sp, ns, k, depth, rng, counts);
+                    radiance += beta * self.direct(&sp, ns, k, depth, sampler, counts);
                     let frame = Frame::from_normal(ns);
-                    let local = cosine_hemisphere(rng.next_2d());
+                    let u = sampler.get_2d(vertex, Dimension::Direction);
+                    let local = cosine_hemisphere(u);
                     let wi = frame.to_world(local);
                     beta *= k;
                     prev = Some((sp.p, local.z * FRAC_1_PI));
@@ -173,23 +176,32 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
 
     /// Chooses the lobe followed at a vertex; `None` when the path ends
     /// there (absorption, or nothing left to scatter). A diffuse-only
-    /// material draws the same random number as a mixed one, so the random
-    /// stream does not depend on which of the two evaluated the choice.
+    /// material takes a number from the sampler as a mixed one does (and
+    /// skips it when the diffuse lobe is certain), so the independent stream
+    /// does not depend on which of the two evaluated the choice.
     #[inline]
     fn choose_lobe(
         &self,
-        lobes: Lobes,
-        material: &Material,
+        material_id: u32,
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
         cos_o: f32,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
+        vertex: u32,
     ) -> Option<Scatter> {
-        let Lobes::Diffuse { weight } = lobes else {
-            return self.choose_mixed_lobe(material, hit, sp, cos_o, rng);
+        let material = &self.scene.materials[material_id as usize];
+        let Lobes::Diffuse { weight } = self.scene.shading(material_id).lobes else {
+            let u = sampler.get_1d(vertex, Dimension::Lobe);
+            return self.choose_mixed_lobe(material, hit, sp, cos_o, u);
         };
         let p = weight * self.lobe_scale(weight)?;
-        (rng.next_f32() < p).then_some(Scatter {
+        let chosen = if p >= 1.0 {
+            sampler.skip_1d();
+            true
+        } else {
+            sampler.get_1d(vertex, Dimension::Lobe) < p
+        };
+        chosen.then_some(Scatter {
             lobe: Lobe::Diffuse,
             p,
             k: material.kd,
@@ -202,7 +214,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
         cos_o: f32,
-        rng: &mut Rng,
+        xi: f32,
     ) -> Option<Scatter> {
         let kd = if material.texture.is_some() {
             self.scene.albedo(hit, sp)
@@ -223,7 +235,6 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         let (wd, ws, wt) = (kd.max_element(), ks.max_element(), kt.max_element());
         let sum = wd + ws + wt;
         let scale = self.lobe_scale(sum)?;
-        let xi = rng.next_f32();
         let (lobe, p, k) = if xi < wd * scale {
             (Lobe::Diffuse, wd * scale, kd)
         } else if xi < (wd + ws) * scale {
@@ -259,7 +270,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         ns: Vec3,
         kd: Rgb,
         depth: u32,
-        rng: &mut Rng,
+        sampler: &mut Sampler,
         counts: &mut RayCounts,
     ) -> Rgb {
         // Light sampling adds one segment to the path.
@@ -283,8 +294,14 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             }
         }
         if !scene.lights.is_empty() {
-            let u_pick = rng.next_f32();
-            let u = rng.next_2d();
+            let vertex = depth - 1;
+            let u_pick = if scene.lights.picks() {
+                sampler.get_1d(vertex, Dimension::LightPick)
+            } else {
+                sampler.skip_1d();
+                0.0
+            };
+            let u = sampler.get_2d(vertex, Dimension::LightPoint);
             if let Some(ls) = scene.lights.sample(&scene.shapes, sp.p, u_pick, u) {
                 let w = ls.point.p - sp.p;
                 let d = w.length();

@@ -1,6 +1,6 @@
 //! The parallel render loop: rows of pixels in parallel (rayon), every sample
-//! drawing its random numbers from a stream keyed by (seed, pixel, sample
-//! index), each pixel summing its samples in order. The image is therefore
+//! drawing its numbers from a sampler keyed by (seed, pixel, sample index),
+//! each pixel summing its samples in order. The image is therefore
 //! the same for any thread count, and disjoint sample ranges merge exactly.
 
 pub mod film;
@@ -11,7 +11,7 @@ pub use integrator::{Integrator, IntegratorSettings, RayCounts};
 
 use crate::accel::{Accel, AccelTree, Backend};
 use crate::math::Vec2;
-use crate::sampling::Rng;
+use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -24,6 +24,7 @@ pub struct RenderOptions {
     /// Sample indices to render in every pixel.
     pub samples: Range<u32>,
     pub seed: u64,
+    pub sampler: SamplerKind,
     pub integrator: IntegratorSettings,
 }
 
@@ -33,6 +34,7 @@ impl RenderOptions {
         Self {
             samples: 0..scene.render.spp,
             seed: scene.render.seed,
+            sampler: scene.render.sampler,
             integrator: IntegratorSettings {
                 max_depth: scene.render.max_depth,
                 russian_roulette: scene.render.russian_roulette,
@@ -121,10 +123,10 @@ pub fn render_into<B: Backend + ?Sized>(
                     non_finite: 0,
                 };
                 for s in samples.clone() {
-                    let mut rng = Rng::for_sample(options.seed, x, y, s);
-                    let jitter = rng.next_2d();
+                    let mut sampler = Sampler::for_sample(options.sampler, options.seed, x, y, s);
+                    let jitter = sampler.camera();
                     let ray = cam.ray(&basis, Vec2::new(x as f32, y as f32) + jitter);
-                    px.add(integrator.li(ray, &mut rng, &mut local));
+                    px.add(integrator.li(ray, &mut sampler, &mut local));
                 }
                 row_sum[x as usize] = px.sum;
                 row_sq[x as usize] = px.sum_sq;
@@ -170,5 +172,80 @@ pub fn render_into_with(
         AccelTree::Native(t) => render_into(scene, &accel.over(t), options, film, progress),
         #[cfg(luz_embree)]
         AccelTree::Embree(t) => render_into(scene, &accel.over(t), options, film, progress),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::{BackendKind, BuildOptions};
+    use std::path::Path;
+    use std::sync::Arc;
+
+    fn scene() -> Arc<Scene> {
+        let scene = crate::scene::load_str(
+            r#"[camera]
+eye = [0, 1, 3]
+target = [0, 1, 0]
+resolution = [6, 5]
+[render]
+max_depth = 6
+[materials.light]
+emission = 4
+[materials.wall]
+kd = 0.7
+[[shapes]]
+type = "sphere"
+center = [0, 2.2, 0]
+radius = 0.5
+material = "light"
+nee = true
+[[shapes]]
+type = "cuboid"
+min = [-2, -0.1, -2]
+max = [2, 0, 2]
+material = "wall"
+"#,
+            Path::new("t.toml"),
+        )
+        .unwrap();
+        Arc::new(scene)
+    }
+
+    /// The film of `scene` rendered in pieces, from each of `cuts` to the
+    /// next, on `threads` threads.
+    fn film(scene: &Arc<Scene>, sampler: SamplerKind, cuts: &[u32], threads: usize) -> Film {
+        let accel = Accel::build(scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        let mut film = Film::new(scene.camera.width, scene.camera.height);
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        for piece in cuts.windows(2) {
+            let options = RenderOptions {
+                samples: piece[0]..piece[1],
+                sampler,
+                ..RenderOptions::from_scene(scene)
+            };
+            pool.install(|| render_into_with(scene, &accel, &options, &mut film, &()));
+        }
+        film
+    }
+
+    #[test]
+    fn a_render_in_pieces_on_any_threads_is_the_render_in_one_go() {
+        let scene = scene();
+        for sampler in SamplerKind::ALL {
+            let straight = film(&scene, sampler, &[0, 9], 1);
+            let pieces = film(&scene, sampler, &[0, 2, 7, 9], 2);
+            assert_eq!(straight.sum, pieces.sum, "{sampler:?}");
+            assert_eq!(straight.sum_sq, pieces.sum_sq, "{sampler:?}");
+            assert!(straight.image().mean().x > 0.01, "the scene is lit");
+        }
+        let (a, b) = (
+            film(&scene, SamplerKind::Independent, &[0, 9], 1),
+            film(&scene, SamplerKind::Sobol, &[0, 9], 1),
+        );
+        assert_ne!(a.sum, b.sum, "the samplers draw different numbers");
     }
 }

@@ -91,6 +91,12 @@ impl LightSampler {
         self.choice.is_none()
     }
 
+    /// Whether `sample` reads its `u_pick`: only a choice among several
+    /// emitters does.
+    pub fn picks(&self) -> bool {
+        matches!(self.choice, Some(Choice::ByPower(_)))
+    }
+
     /// Picks an emitter for `u_pick` in [0,1): its slot and probability.
     #[inline]
     fn pick(&self, u_pick: f32) -> Option<(usize, f32)> {

@@ -10,6 +10,7 @@ use crate::geometry::{within_bounds, Cuboid, Geometry, Mesh, Plane, Quad, Sphere
 use crate::location::{line_column, read_regular_file};
 use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
 use crate::render::film::check_resolution;
+use crate::sampling::SamplerKind;
 use serde::Deserialize;
 use std::cell::RefCell;
 use std::collections::BTreeMap;
@@ -158,6 +159,7 @@ struct RenderDesc {
     max_depth: Option<u32>,
     seed: Option<u64>,
     russian_roulette: Option<bool>,
+    sampler: Option<String>,
 }
 
 /// A colour: `[r, g, b]`, or one number for grey.
@@ -649,6 +651,12 @@ impl Ctx<'_> {
             max_depth: rd.max_depth.unwrap_or(d.max_depth),
             seed: rd.seed.unwrap_or(d.seed),
             russian_roulette: rd.russian_roulette.unwrap_or(d.russian_roulette),
+            sampler: match &rd.sampler {
+                Some(name) => name
+                    .parse::<SamplerKind>()
+                    .map_err(|e| self.field_error(&r.span(), "sampler", e))?,
+                None => d.sampler,
+            },
         })
     }
 
@@ -1214,6 +1222,24 @@ mod tests {
             assert_eq!(e.location.map(|l| l.0), Some(line), "{e}");
             assert!(e.message.contains(field), "{e}");
         }
+    }
+
+    #[test]
+    fn the_render_table_names_the_sampler() {
+        for kind in SamplerKind::ALL {
+            let text = format!("{MINIMAL}[render]\nsampler = \"{}\"\n", kind.name());
+            let s = load_str(&text, Path::new("s.toml")).unwrap();
+            assert_eq!(s.render.sampler, kind);
+        }
+        let e = err(&format!(
+            "{MINIMAL}[render]\nspp = 4\nsampler = \"halton\"\n"
+        ));
+        assert_eq!(e.location.map(|l| l.0), Some(6), "{e}");
+        assert!(
+            e.message
+                .contains("unknown sampler `halton` (known: independent, sobol)"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -16,6 +16,7 @@ pub use texture::{Texture, UvTransform};
 
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit, SurfacePoint};
 use crate::math::{Ray, Rgb, Vec3};
+use crate::sampling::SamplerKind;
 use std::path::PathBuf;
 
 /// One shape of the scene; its index in `Scene::shapes` is its `geom` id.
@@ -48,6 +49,7 @@ pub struct RenderSettings {
     pub max_depth: u32,
     pub seed: u64,
     pub russian_roulette: bool,
+    pub sampler: SamplerKind,
 }
 
 impl Default for RenderSettings {
@@ -57,6 +59,7 @@ impl Default for RenderSettings {
             max_depth: 64,
             seed: 0,
             russian_roulette: true,
+            sampler: SamplerKind::default(),
         }
     }
 }

@@ -17,6 +17,7 @@ use crate::geometry::Geometry;
 use crate::image::io::{self as imageio, ImageError, WriteOptions};
 use crate::image::{metrics, Image};
 use crate::render::{render_with, IntegratorSettings, Progress, RenderOptions};
+use crate::sampling::SamplerKind;
 use crate::scene::Scene;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -32,6 +33,8 @@ pub enum Vary {
     MaxDepth,
     EmbreeQuality,
     EmbreeRobust,
+    /// Independent numbers against Sobol' points.
+    Sampler,
 }
 
 impl std::str::FromStr for Vary {
@@ -45,12 +48,13 @@ impl std::str::FromStr for Vary {
 }
 
 impl Vary {
-    const ALL: [Vary; 5] = [
+    const ALL: [Vary; 6] = [
         Self::Nee,
         Self::RussianRoulette,
         Self::MaxDepth,
         Self::EmbreeQuality,
         Self::EmbreeRobust,
+        Self::Sampler,
     ];
 
     /// The name `FromStr` accepts (which also takes `rr`).
@@ -61,6 +65,7 @@ impl Vary {
             Self::MaxDepth => "max-depth",
             Self::EmbreeQuality => "embree-quality",
             Self::EmbreeRobust => "embree-robust",
+            Self::Sampler => "sampler",
         }
     }
 
@@ -114,6 +119,7 @@ pub struct Setting {
     pub nee: Option<bool>,
     pub russian_roulette: bool,
     pub max_depth: u32,
+    pub sampler: SamplerKind,
     pub build: BuildOptions,
     /// The backend and the varied values, e.g. `embree / NEE off / RR on`.
     pub label: String,
@@ -348,6 +354,7 @@ impl Study {
                 let options = RenderOptions {
                     samples: 0..spp,
                     seed: scene.render.seed,
+                    sampler: setting.sampler,
                     integrator: IntegratorSettings {
                         max_depth: setting.max_depth,
                         russian_roulette: setting.russian_roulette,
@@ -423,7 +430,9 @@ impl Study {
 }
 
 fn reference_note(r: &ReferenceRender) -> String {
-    format!("rendered first ({r}) with the scene's own NEE, Russian roulette and max depth")
+    format!(
+        "rendered first ({r}) with the scene's own NEE, Russian roulette, max depth and sampler"
+    )
 }
 
 impl std::fmt::Display for ReferenceRender {
@@ -491,6 +500,7 @@ fn enumerate(
             nee: None,
             russian_roulette: scene.render.russian_roulette,
             max_depth: scene.render.max_depth,
+            sampler: scene.render.sampler,
             build,
             label: backend.name().to_owned(),
         })
@@ -523,6 +533,15 @@ fn enumerate(
                             let mut t = s.clone();
                             t.max_depth = d;
                             let _ = write!(t.label, " / depth {d}");
+                            t
+                        })
+                        .collect(),
+                    Vary::Sampler => SamplerKind::ALL
+                        .into_iter()
+                        .map(|kind| {
+                            let mut t = s.clone();
+                            t.sampler = kind;
+                            let _ = write!(t.label, " / {}", kind.name());
                             t
                         })
                         .collect(),
@@ -567,12 +586,13 @@ pub struct Report {
 }
 
 /// The CSV's columns, in order.
-pub const CSV_COLUMNS: [&str; 14] = [
+pub const CSV_COLUMNS: [&str; 15] = [
     "setting",
     "backend",
     "nee",
     "russian_roulette",
     "max_depth",
+    "sampler",
     "embree_quality",
     "embree_robust",
     "spp",
@@ -608,12 +628,13 @@ impl Report {
             };
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{quality},{robust},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{quality},{robust},{},{},{},{},{},{},{}",
                 t.label,
                 t.backend.name(),
                 t.nee.map_or("scene", on_off),
                 on_off(t.russian_roulette),
                 t.max_depth,
+                t.sampler.name(),
                 r.spp,
                 r.time_s,
                 r.build_s,
@@ -873,6 +894,23 @@ material = "floor"
         assert_eq!(t[0].label, "rust / depth 2");
         assert_eq!(t[7].label, "embree / high quality / depth 9");
         assert_eq!(t[7].build.embree_quality, Quality::High);
+
+        let t = enumerate(
+            &s,
+            &[BackendKind::Rust],
+            &[Vary::Sampler],
+            &[],
+            BuildOptions::default(),
+        );
+        let kinds: Vec<(&str, SamplerKind)> =
+            t.iter().map(|t| (t.label.as_str(), t.sampler)).collect();
+        assert_eq!(
+            kinds,
+            [
+                ("rust / independent", SamplerKind::Independent),
+                ("rust / sobol", SamplerKind::Sobol)
+            ]
+        );
     }
 
     #[test]

@@ -8,6 +8,7 @@ use luz::distributed::part;
 use luz::image::io::WriteOptions;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
 use luz::job::Overrides;
+use luz::sampling::SamplerKind;
 use luz::study::Vary;
 use std::ops::Range;
 use std::path::PathBuf;
@@ -160,8 +161,9 @@ pub(crate) struct StudyArgs {
     pub(crate) backends: Vec<BackendKind>,
     /// What to vary, every combination: nee (area lights; point lights are
     /// always sampled), russian-roulette, max-depth, embree-quality,
-    /// embree-robust. A varied setting replaces its option (--max-depth,
-    /// --russian-roulette, --embree-quality, --embree-robust).
+    /// embree-robust, sampler. A varied setting replaces its option
+    /// (--max-depth, --russian-roulette, --embree-quality, --embree-robust,
+    /// --sampler).
     #[arg(long, value_delimiter = ',')]
     pub(crate) vary: Vec<Vary>,
     /// Depths of `--vary max-depth` (default 3,5,8).
@@ -199,6 +201,10 @@ pub(crate) struct SettingsArgs {
     /// Russian roulette over the lobes: on or off.
     #[arg(long, value_parser = parse_on_off)]
     pub(crate) russian_roulette: Option<bool>,
+    /// Where samples' numbers come from: sobol (Owen-scrambled Sobol'
+    /// points, the default) or independent (PCG32).
+    #[arg(long)]
+    pub(crate) sampler: Option<SamplerKind>,
     /// Worker threads (default: all cores; at most 4096).
     #[arg(long, value_parser = clap::value_parser!(u16).range(1..=4096))]
     pub(crate) threads: Option<u16>,
@@ -234,6 +240,7 @@ impl SettingsArgs {
             max_depth: self.max_depth,
             seed: self.seed,
             russian_roulette: self.russian_roulette,
+            sampler: self.sampler,
             resolution: self.resolution,
         }
     }

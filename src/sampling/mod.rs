@@ -1,5 +1,12 @@
-//! Deterministic random numbers and the warps from the unit square to the
+//! Deterministic random numbers (independent streams, and Owen-scrambled
+//! Sobol' points in `sobol`), the sampler that hands them to the integrator
+//! by dimension (`sampler`), and the warps from the unit square to the
 //! directions and points the integrator samples.
+
+pub mod sampler;
+pub mod sobol;
+
+pub use sampler::{Dimension, Sampler, SamplerKind};
 
 use crate::math::{sin_cos_octant, sin_cos_turns, Vec2, Vec3};
 use std::f32::consts::{FRAC_PI_4, PI};

@@ -1,0 +1,235 @@
+//! Owen-scrambled Sobol' points in two dimensions, with the order of the
+//! points shuffled too (Burley 2020, "Practical Hash-based Owen
+//! Scrambling", JCGT 9(4)).
+//!
+//! The first two Sobol' dimensions form a (0,2)-sequence: every aligned
+//! block of 2^m consecutive points, the first 2^m included, has exactly one
+//! point in each elementary interval of area 2^-m. A nested uniform (Owen)
+//! scramble keeps that and makes each point uniformly distributed; shuffling
+//! the index with the same kind of scramble maps the first 2^m indices to
+//! some aligned block of 2^m, so every power-of-two prefix stays a net,
+//! while each seed gives another order. That is what lets pairs of
+//! dimensions with different seeds be combined ("padded") without the
+//! correlation identical orders would bring.
+//!
+//! Dimension 0 is the van der Corput sequence, whose generator matrix is the
+//! bit reversal. Dimension 1's generator matrix is derived here from its
+//! primitive polynomial and initial direction numbers as Joe and Kuo give
+//! them (S. Joe, F. Y. Kuo, "Constructing Sobol sequences with better
+//! two-dimensional projections", SIAM J. Sci. Comput. 30, 2008; the file
+//! new-joe-kuo-6.21201 at https://web.maths.unsw.edu.au/~fkuo/sobol/, its
+//! first line `2 1 0 1`). Padding needs no other dimension.
+
+/// The Laine–Karras style hash that pbrt-v4's `FastOwenScrambler` uses: a
+/// bijection on u32 in which output bit j is input bit j flipped by a
+/// function of the bits below it and of `seed`. On bit-reversed values that
+/// is a nested uniform scramble: each digit is flipped depending on the
+/// digits before it.
+#[inline]
+fn laine_karras(mut v: u32, seed: u32) -> u32 {
+    v ^= v.wrapping_mul(0x3d20_adea);
+    v = v.wrapping_add(seed);
+    v = v.wrapping_mul((seed >> 16) | 1);
+    v ^= v.wrapping_mul(0x0552_6c56);
+    v ^= v.wrapping_mul(0x53a2_2864);
+    v
+}
+
+/// The shuffled index of the sample index whose bits, reversed, are
+/// `reversed` (reversed once per sample by the caller, not once per
+/// dimension). In the index, bit j is flipped by a function of the bits
+/// above it, so the indices below 2^m go to one aligned block of 2^m.
+#[inline]
+fn shuffle(reversed: u32, seed: u32) -> u32 {
+    laine_karras(reversed, seed).reverse_bits()
+}
+
+/// Direction numbers of a Sobol' dimension as 32-bit fractions, column k
+/// being m_(k+1) / 2^(k+1): the dimension's primitive polynomial has degree
+/// `degree` and inner coefficients `a` (a_1 … a_(degree-1), a_1 the most
+/// significant bit), `m` holds its initial direction numbers. Bratley and
+/// Fox's recurrence gives the rest: m_k = 2 a_1 m_(k-1) ⊕ 4 a_2 m_(k-2) ⊕ …
+/// ⊕ 2^s m_(k-s) ⊕ m_(k-s).
+const fn generator_columns(degree: usize, a: u32, m: &[u32]) -> [u32; 32] {
+    let mut mk = [0u32; 32];
+    let mut k = 0;
+    while k < 32 {
+        mk[k] = if k < degree {
+            m[k]
+        } else {
+            let mut v = mk[k - degree] ^ (mk[k - degree] << degree);
+            let mut i = 1;
+            while i < degree {
+                if (a >> (degree - 1 - i)) & 1 == 1 {
+                    v ^= mk[k - i] << i;
+                }
+                i += 1;
+            }
+            v
+        };
+        k += 1;
+    }
+    let mut columns = [0u32; 32];
+    let mut k = 0;
+    while k < 32 {
+        columns[k] = mk[k] << (31 - k);
+        k += 1;
+    }
+    columns
+}
+
+/// Dimension 1: the polynomial x + 1 (degree 1, no inner coefficient),
+/// m_1 = 1.
+const DIMENSION_1: [u32; 32] = generator_columns(1, 0, &[1]);
+
+/// Dimension 1's matrix times an index, eight index bits at a time, with
+/// the result bit-reversed: the scramble works on reversed values, so the
+/// table saves one reversal per point.
+static DIMENSION_1_BYTES: [[u32; 256]; 4] = byte_tables(&DIMENSION_1);
+
+const fn byte_tables(columns: &[u32; 32]) -> [[u32; 256]; 4] {
+    let mut t = [[0u32; 256]; 4];
+    let mut byte = 0;
+    while byte < 4 {
+        let mut b = 0;
+        while b < 256 {
+            let mut v = 0u32;
+            let mut i = 0;
+            while i < 8 {
+                if (b >> i) & 1 == 1 {
+                    v ^= columns[8 * byte + i].reverse_bits();
+                }
+                i += 1;
+            }
+            t[byte][b] = v;
+            b += 1;
+        }
+        byte += 1;
+    }
+    t
+}
+
+/// The per-point seeds of one pair of dimensions: the index shuffle and
+/// one scramble per dimension.
+#[derive(Clone, Copy, Debug)]
+pub struct Seeds {
+    pub shuffle: u32,
+    pub x: u32,
+    pub y: u32,
+}
+
+/// The point of sample index `reversed.reverse_bits()` in the shuffled,
+/// scrambled (0,2)-sequence, as 32-bit fractions.
+#[inline]
+pub fn point_2d(reversed: u32, seeds: Seeds) -> (u32, u32) {
+    let i = shuffle(reversed, seeds.shuffle);
+    // Dimension 0 is reverse_bits(i); scrambling reverses it back first.
+    let x = laine_karras(i, seeds.x).reverse_bits();
+    let [b0, b1, b2, b3] = i.to_le_bytes();
+    let t = &DIMENSION_1_BYTES;
+    let y_reversed = t[0][b0 as usize] ^ t[1][b1 as usize] ^ t[2][b2 as usize] ^ t[3][b3 as usize];
+    let y = laine_karras(y_reversed, seeds.y).reverse_bits();
+    (x, y)
+}
+
+/// The point of sample index `reversed.reverse_bits()` in the shuffled,
+/// scrambled van der Corput sequence: a (0,1)-sequence, stratified in every
+/// power-of-two prefix.
+#[inline]
+pub fn point_1d(reversed: u32, shuffle_seed: u32, scramble: u32) -> u32 {
+    laine_karras(shuffle(reversed, shuffle_seed), scramble).reverse_bits()
+}
+
+/// A 32-bit fraction as an f32 in [0, 1), rounded down to 24 bits.
+#[inline]
+pub fn to_unit(v: u32) -> f32 {
+    (v >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Sobol' dimension 1 multiplied out bit by bit, as pbrt-v4's
+    /// `SobolSample` does.
+    fn dimension_1(mut index: u32) -> u32 {
+        let mut v = 0;
+        for column in DIMENSION_1 {
+            if index & 1 == 1 {
+                v ^= column;
+            }
+            index >>= 1;
+        }
+        v
+    }
+
+    #[test]
+    fn dimension_1_matches_joe_kuo_as_pbrt_tabulates_it() {
+        // pbrt-v4, src/pbrt/util/sobolmatrices.cpp, the second dimension.
+        let pbrt = [
+            0x8000_0000u32,
+            0xc000_0000,
+            0xa000_0000,
+            0xf000_0000,
+            0x8800_0000,
+            0xcc00_0000,
+            0xaa00_0000,
+            0xff00_0000,
+            0x8080_0000,
+            0xc0c0_0000,
+            0xa0a0_0000,
+            0xf0f0_0000,
+            0x8888_0000,
+            0xcccc_0000,
+            0xaaaa_0000,
+            0xffff_0000,
+        ];
+        assert_eq!(DIMENSION_1[..16], pbrt);
+        // Pascal's triangle mod 2: the last column is all ones.
+        assert_eq!(DIMENSION_1[31], u32::MAX);
+    }
+
+    #[test]
+    fn the_byte_tables_multiply_like_the_matrix() {
+        let t = &DIMENSION_1_BYTES;
+        for index in [0u32, 1, 2, 3, 255, 256, 0x1234_5678, u32::MAX] {
+            let [b0, b1, b2, b3] = index.to_le_bytes();
+            let v = t[0][b0 as usize] ^ t[1][b1 as usize] ^ t[2][b2 as usize] ^ t[3][b3 as usize];
+            assert_eq!(v.reverse_bits(), dimension_1(index), "{index:#x}");
+        }
+    }
+
+    #[test]
+    fn laine_karras_flips_each_bit_by_the_bits_below_only() {
+        // Changing bit j of the input leaves every bit below j as it was.
+        for seed in [0u32, 1, 0xdead_beef] {
+            for v in [0u32, 0x1234_5678, u32::MAX] {
+                let out = laine_karras(v, seed);
+                for j in 0..32 {
+                    let changed = laine_karras(v ^ (1 << j), seed);
+                    let below = (1u64 << j) as u32 - 1;
+                    assert_eq!(out & below, changed & below);
+                    assert_ne!(out & (1 << j), changed & (1 << j));
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn the_shuffle_maps_power_of_two_prefixes_to_aligned_blocks() {
+        for seed in [3u32, 0x9e37_79b9] {
+            for m in 0..10 {
+                let n = 1u32 << m;
+                let mut shuffled: Vec<u32> =
+                    (0..n).map(|i| shuffle(i.reverse_bits(), seed)).collect();
+                shuffled.sort_unstable();
+                let start = shuffled[0];
+                assert_eq!(start % n, 0, "aligned");
+                assert!(shuffled
+                    .iter()
+                    .enumerate()
+                    .all(|(k, &i)| i == start + k as u32));
+            }
+        }
+    }
+}
