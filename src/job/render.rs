@@ -11,7 +11,7 @@ use crate::distributed::passes::{render_passes, Outcome};
 use crate::distributed::task::{self, Task};
 use crate::image::io::{self as imageio, WriteOptions};
 use crate::render::{Film, Progress, RenderOptions, RenderStats};
-use crate::scene::{Scene, SceneError};
+use crate::scene::{LoadOptions, Scene, SceneError};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -24,12 +24,14 @@ pub struct Overrides {
     pub seed: Option<u64>,
     pub russian_roulette: Option<bool>,
     pub resolution: Option<(u32, u32)>,
+    /// Mitsuba parameters (`-D`) and `--strict`.
+    pub load: LoadOptions,
 }
 
 impl Overrides {
     /// Loads the scene at `path` and applies the overrides.
     pub fn load(&self, path: &Path) -> Result<Scene, SceneError> {
-        let mut scene = crate::scene::load(path)?;
+        let mut scene = crate::scene::load_with(path, &self.load)?;
         if let Some((w, h)) = self.resolution {
             scene.camera.width = w;
             scene.camera.height = h;

@@ -64,7 +64,11 @@ pub fn load_bytes(data: &[u8], path: &Path) -> Result<Scene, SceneError> {
 }
 
 /// [`load_bytes`] with options; a `.xml` file is read as Mitsuba XML.
-pub fn load_bytes_with(data: &[u8], path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+pub fn load_bytes_with(
+    data: &[u8],
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<Scene, SceneError> {
     let text = std::str::from_utf8(data).map_err(|e| SceneError {
         file: path.to_path_buf(),
         location: Some(line_column(data, e.valid_up_to())),
@@ -78,7 +82,10 @@ pub fn load_bytes_with(data: &[u8], path: &Path, options: &LoadOptions) -> Resul
         location: None,
         message,
     };
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("xml")) {
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+    {
         return super::mitsuba::load_str(text, path, options);
     }
     if let Some((key, _)) = options.defines.first() {

@@ -61,7 +61,7 @@ const METALS: &[(&str, [f32; 3])] = &[
 ];
 
 pub(super) fn bsdf(b: &mut Builder, e: &Elem) -> Result<Bsdf, SceneError> {
-    let props = Props::new(e, &b.ids);
+    let props = Props::new(e, b.ids);
     let name = e.attr("id").unwrap_or("").to_string();
     let mut out = match e.kind() {
         "diffuse" => diffuse(b, &props)?,
@@ -118,7 +118,9 @@ fn clamp_albedo(b: &mut Builder, props: &Props, name: &str, c: Rgb) -> Result<Rg
     if c.max_element() > 1.0 {
         b.problems.warn(
             &props.elem.loc,
-            format!("`{name}` {c} exceeds 1 (the surface would create energy in luz); clamped to 1"),
+            format!(
+                "`{name}` {c} exceeds 1 (the surface would create energy in luz); clamped to 1"
+            ),
         )?;
     }
     Ok(c.min(Rgb::ONE))
@@ -142,7 +144,9 @@ fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
     let nested = props.objects("bsdf")?;
     let Some(first) = nested.first() else {
-        return Err(e.loc.error(format!("{} needs a nested <bsdf>", e.describe())));
+        return Err(e
+            .loc
+            .error(format!("{} needs a nested <bsdf>", e.describe())));
     };
     let what = match e.kind() {
         "twosided" if nested.len() > 1 => Some("a different back side is not supported"),
@@ -154,7 +158,10 @@ fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     if let Some(what) = what {
         b.problems.warn(
             &e.loc,
-            format!("{}: {what}; substituted its first nested BSDF", e.describe()),
+            format!(
+                "{}: {what}; substituted its first nested BSDF",
+                e.describe()
+            ),
         )?;
         for n in ["opacity", "weight", "texture", "scale", "normalmap"] {
             props.accept(n);
@@ -167,7 +174,13 @@ fn conductor(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
     let mut what = Vec::new();
     if e.kind() == "roughconductor" {
-        for n in ["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"] {
+        for n in [
+            "alpha",
+            "alpha_u",
+            "alpha_v",
+            "distribution",
+            "sample_visible",
+        ] {
             props.accept(n);
         }
         what.push("the roughness is substituted by a perfect mirror");
@@ -182,7 +195,8 @@ fn conductor(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
         None => Rgb::ONE,
     };
     if !what.is_empty() {
-        b.problems.warn(&e.loc, format!("{}: {}", e.describe(), what.join("; ")))?;
+        b.problems
+            .warn(&e.loc, format!("{}: {}", e.describe(), what.join("; ")))?;
     }
     let ks = clamp_albedo(b, props, "specular_reflectance", f0 * tint)?;
     Ok(Bsdf::of(Material {
@@ -201,13 +215,18 @@ fn conductor_f0(b: &mut Builder, props: &Props, what: &mut Vec<&str>) -> Result<
     let k = props.color("k", Use::Emission, &mut b.problems)?;
     let material = props.string("material")?.unwrap_or("none");
     if eta.is_none() && material != "none" {
-        what.push("the Fresnel term's change with angle is substituted by its value at normal incidence");
+        what.push(
+            "the Fresnel term's change with angle is substituted by its value at normal incidence",
+        );
         return match METALS.iter().find(|(m, _)| *m == material) {
             Some((_, f0)) => Ok(Rgb::from(*f0)),
             None => {
                 b.problems.warn(
                     &e.loc,
-                    format!("`material` {}: luz knows Al, Ag, Au, Cu, Cr; substituted Al", echo(material)),
+                    format!(
+                        "`material` {}: luz knows Al, Ag, Au, Cu, Cr; substituted Al",
+                        echo(material)
+                    ),
                 )?;
                 Ok(Rgb::from(METALS[0].1))
             }
@@ -219,7 +238,9 @@ fn conductor_f0(b: &mut Builder, props: &Props, what: &mut Vec<&str>) -> Result<
     };
     let (n, k) = (rgb(eta) / ext as f32, rgb(k) / ext as f32);
     if n != Rgb::ZERO || k != Rgb::ZERO {
-        what.push("the Fresnel term's change with angle is substituted by its value at normal incidence");
+        what.push(
+            "the Fresnel term's change with angle is substituted by its value at normal incidence",
+        );
     }
     let one = Rgb::ONE;
     let f0 = ((n - one) * (n - one) + k * k) / ((n + one) * (n + one) + k * k);
@@ -237,13 +258,16 @@ fn ior(props: &Props, name: &str, default: f64) -> Result<f64, SceneError> {
             return Ok(x);
         }
     }
-    IORS.iter().find(|(n, _)| *n == v.trim()).map(|(_, x)| *x).ok_or_else(|| {
-        e.loc.error(format!(
-            "`{name}`: expected a positive number or a named index ({}), found {}",
-            IORS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
-            echo(v)
-        ))
-    })
+    IORS.iter()
+        .find(|(n, _)| *n == v.trim())
+        .map(|(_, x)| *x)
+        .ok_or_else(|| {
+            e.loc.error(format!(
+                "`{name}`: expected a positive number or a named index ({}), found {}",
+                IORS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+                echo(v)
+            ))
+        })
 }
 
 fn relative_ior(props: &Props, int_default: f64) -> Result<f64, SceneError> {
@@ -253,12 +277,21 @@ fn relative_ior(props: &Props, int_default: f64) -> Result<f64, SceneError> {
 fn dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
     if e.kind() == "roughdielectric" {
-        for n in ["alpha", "alpha_u", "alpha_v", "distribution", "sample_visible"] {
+        for n in [
+            "alpha",
+            "alpha_u",
+            "alpha_v",
+            "distribution",
+            "sample_visible",
+        ] {
             props.accept(n);
         }
         b.problems.warn(
             &e.loc,
-            format!("{}: the roughness is substituted by a smooth dielectric", e.describe()),
+            format!(
+                "{}: the roughness is substituted by a smooth dielectric",
+                e.describe()
+            ),
         )?;
     }
     let ior = relative_ior(props, 1.5046)?;

@@ -29,20 +29,29 @@ impl<'e> Builder<'e, '_> {
     }
 
     /// An emitter nested in a shape.
-    pub(super) fn area_emitter(&mut self, e: &'e Elem, shape: &mut Shape) -> Result<(), SceneError> {
+    pub(super) fn area_emitter(
+        &mut self,
+        e: &'e Elem,
+        shape: &mut Shape,
+    ) -> Result<(), SceneError> {
         let props = Props::new(e, self.ids);
         if e.kind() != "area" {
             props.finish(&mut self.problems).ok();
             return self.problems.warn(
                 &e.loc,
-                format!("{} on a shape: only `area` emitters can sit on shapes in luz; left out", e.describe()),
+                format!(
+                    "{} on a shape: only `area` emitters can sit on shapes in luz; left out",
+                    e.describe()
+                ),
             );
         }
         let radiance = self.radiance(&props, "radiance")?;
         props.finish(&mut self.problems)?;
         let power = radiance.max_element() * shape.geometry.area().unwrap_or(0.0);
         if !power.is_finite() {
-            return Err(e.loc.error(format!("`radiance` {radiance} times the shape's area overflows f32")));
+            return Err(e.loc.error(format!(
+                "`radiance` {radiance} times the shape's area overflows f32"
+            )));
         }
         // Emission belongs to luz's material: each emitter gets its own
         // copy of the shape's.
@@ -66,7 +75,10 @@ impl<'e> Builder<'e, '_> {
                     return Err(e.loc.error("`position` lies beyond ±1e12"));
                 }
                 let intensity = self.radiance(&props, "intensity")?;
-                self.point_lights.push(PointLight { position, intensity });
+                self.point_lights.push(PointLight {
+                    position,
+                    intensity,
+                });
             }
             "constant" => {
                 let radiance = self.radiance(&props, "radiance")?;

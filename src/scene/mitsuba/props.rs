@@ -75,10 +75,10 @@ impl<'e, 'i> Props<'e, 'i> {
     /// The element a `<ref id>` names.
     pub fn resolve(&self, r: &Elem) -> Result<&'e Elem, SceneError> {
         let id = r.need("id")?;
-        self.ids
-            .get(id)
-            .copied()
-            .ok_or_else(|| r.loc.error(format!("<ref>: no element has the id {}", echo(id))))
+        self.ids.get(id).copied().ok_or_else(|| {
+            r.loc
+                .error(format!("<ref>: no element has the id {}", echo(id)))
+        })
     }
 
     pub fn float(&self, name: &str) -> Result<Option<f64>, SceneError> {
@@ -160,11 +160,18 @@ impl<'e, 'i> Props<'e, 'i> {
             "blackbody" | "srgb" => {
                 problems.warn(
                     &e.loc,
-                    format!("`{name}`: <{}> is not supported; substituted 0.5 grey", e.tag),
+                    format!(
+                        "`{name}`: <{}> is not supported; substituted 0.5 grey",
+                        e.tag
+                    ),
                 )?;
                 Rgb::splat(0.5)
             }
-            _ => return Err(e.loc.error(format!("`{name}`: expected a colour, found <{}>", e.tag))),
+            _ => {
+                return Err(e
+                    .loc
+                    .error(format!("`{name}`: expected a colour, found <{}>", e.tag)))
+            }
         };
         if !rgb.is_finite() || rgb.min_element() < 0.0 {
             return Err(e.loc.error(format!(
@@ -268,7 +275,10 @@ fn rgb(e: &Elem) -> Result<Rgb, SceneError> {
 
 /// `#rrggbb`, sRGB-encoded as Mitsuba reads it.
 fn hex(e: &Elem, v: &str) -> Result<Rgb, SceneError> {
-    let bad = || e.loc.error(format!("<rgb>: expected #rrggbb, found {}", echo(v)));
+    let bad = || {
+        e.loc
+            .error(format!("<rgb>: expected #rrggbb, found {}", echo(v)))
+    };
     if v.len() != 7 {
         return Err(bad());
     }
@@ -291,8 +301,10 @@ fn spectrum(e: &Elem, use_: Use) -> Result<Rgb, SceneError> {
     let mut values = Vec::new();
     for pair in v.split(',').map(str::trim).filter(|p| !p.is_empty()) {
         let (a, b) = pair.split_once(':').ok_or_else(|| {
-            e.loc
-                .error(format!("<spectrum>: expected wavelength:value, found {}", echo(pair)))
+            e.loc.error(format!(
+                "<spectrum>: expected wavelength:value, found {}",
+                echo(pair)
+            ))
         })?;
         w.push(number(e, a)?);
         values.push(number(e, b)?);

@@ -42,10 +42,16 @@ pub(super) fn sensor(e: &Elem, ids: &Ids, problems: &mut Problems) -> Result<Sen
     };
     let axis = props.string("fov_axis")?.unwrap_or("x");
     if !(fov_x > 0.0 && fov_x < 180.0) {
-        return Err(e.loc.error(format!("`fov`: must be in (0, 180) degrees, got {fov_x}")));
+        return Err(e
+            .loc
+            .error(format!("`fov`: must be in (0, 180) degrees, got {fov_x}")));
     }
-    let fov_y = vertical_fov(fov_x, axis, width, height)
-        .ok_or_else(|| e.loc.error(format!("`fov_axis`: unknown axis {:?} (known: x, y, diagonal, smaller, larger)", axis)))?;
+    let fov_y = vertical_fov(fov_x, axis, width, height).ok_or_else(|| {
+        e.loc.error(format!(
+            "`fov_axis`: unknown axis {:?} (known: x, y, diagonal, smaller, larger)",
+            axis
+        ))
+    })?;
     let camera = camera(e, &to_world, fov_y as f32, width, height, problems)?;
     let (spp, seed) = sampler(&props, ids, problems)?;
     props.finish(problems)?;
@@ -74,7 +80,9 @@ fn focal_length_fov(e: &Elem, f: &str) -> Result<f64, SceneError> {
     let mm = f.trim().trim_end_matches("mm").trim().parse::<f64>();
     match mm {
         Ok(mm) if mm > 0.0 && mm.is_finite() => Ok(2.0 * (18.0 / mm).atan().to_degrees()),
-        _ => Err(e.loc.error(format!("`focal_length`: expected e.g. \"50mm\", found {f:?}"))),
+        _ => Err(e.loc.error(format!(
+            "`focal_length`: expected e.g. \"50mm\", found {f:?}"
+        ))),
     }
 }
 
@@ -93,14 +101,26 @@ fn film(props: &Props, ids: &Ids, problems: &mut Problems) -> Result<(u32, u32),
     let (width, height) = (size("width", 768)?, size("height", 576)?);
     check_resolution(width, height).map_err(|m| f.loc.error(format!("<film>: {m}")))?;
     // What the film writes is chosen by luz's output name and tone mapping.
-    for name in ["file_format", "pixel_format", "component_format", "banner", "gamma"] {
+    for name in [
+        "file_format",
+        "pixel_format",
+        "component_format",
+        "banner",
+        "gamma",
+    ] {
         fp.accept(name);
     }
-    if let Some(r) = fp.get("rfilter").or_else(|| fp.objects("rfilter").ok()?.into_iter().next()) {
+    if let Some(r) = fp
+        .get("rfilter")
+        .or_else(|| fp.objects("rfilter").ok()?.into_iter().next())
+    {
         if r.kind() != "box" {
             problems.warn(
                 &r.loc,
-                format!("<rfilter type=\"{}\">: luz filters with a one-pixel box; substituted it", r.kind()),
+                format!(
+                    "<rfilter type=\"{}\">: luz filters with a one-pixel box; substituted it",
+                    r.kind()
+                ),
             )?;
         }
     }
@@ -162,7 +182,11 @@ fn sampler(
     let spp = match sp.integer("sample_count")? {
         None => None,
         Some(n) if n >= 1 && n <= u32::MAX as i64 => Some(n as u32),
-        Some(n) => return Err(s.loc.error(format!("`sample_count`: must be at least 1, got {n}"))),
+        Some(n) => {
+            return Err(s
+                .loc
+                .error(format!("`sample_count`: must be at least 1, got {n}")))
+        }
     };
     let seed = match sp.integer("seed")? {
         None => None,
@@ -203,7 +227,11 @@ pub(super) fn integrator(
     settings.max_depth = match depth {
         -1 => UNBOUNDED_DEPTH,
         d if d >= 0 => u32::try_from(d).unwrap_or(u32::MAX).min(UNBOUNDED_DEPTH),
-        d => return Err(e.loc.error(format!("`max_depth`: must be -1 or at least 0, got {d}"))),
+        d => {
+            return Err(e
+                .loc
+                .error(format!("`max_depth`: must be -1 or at least 0, got {d}")))
+        }
     };
     // Mitsuba's roulette starts at `rr_depth` (5); luz's picks lobes from
     // the first bounce, with the same expectation. A roulette that never
@@ -223,9 +251,15 @@ mod tests {
     fn fov_axes() {
         let close = |a: Option<f64>, b: f64| (a.unwrap() - b).abs() < 1e-9;
         assert!(close(vertical_fov(40.0, "y", 200, 100), 40.0));
-        assert!(close(vertical_fov(90.0, "x", 200, 100), 2.0 * 0.5f64.atan().to_degrees()));
+        assert!(close(
+            vertical_fov(90.0, "x", 200, 100),
+            2.0 * 0.5f64.atan().to_degrees()
+        ));
         assert!(close(vertical_fov(90.0, "smaller", 200, 100), 90.0));
-        assert!(close(vertical_fov(90.0, "smaller", 100, 200), 2.0 * 2f64.atan().to_degrees()));
+        assert!(close(
+            vertical_fov(90.0, "smaller", 100, 200),
+            2.0 * 2f64.atan().to_degrees()
+        ));
         assert!(close(vertical_fov(90.0, "larger", 100, 200), 90.0));
         let d = vertical_fov(90.0, "diagonal", 300, 400).unwrap();
         assert!((d - 2.0 * 0.8f64.atan().to_degrees()).abs() < 1e-9);

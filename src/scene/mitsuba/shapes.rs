@@ -68,7 +68,8 @@ impl<'e> Builder<'e, '_> {
         if *m != DMat4::IDENTITY {
             mesh.transform(&m.as_mat4());
             let before = mesh.indices.len();
-            let dropped = crate::scene::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
+            let dropped =
+                crate::scene::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
             if dropped > 0 {
                 notes.push(format!(
                     "dropped {dropped} of {before} triangles, degenerate once transformed"
@@ -79,10 +80,14 @@ impl<'e> Builder<'e, '_> {
         // ones is said by the mesh reader.
         props.accept("face_normals");
         if !notes.is_empty() {
-            self.problems.warn(&e.loc, format!("{}: {}", path.display(), notes.join("; ")))?;
+            self.problems
+                .warn(&e.loc, format!("{}: {}", path.display(), notes.join("; ")))?;
         }
         if mesh.indices.is_empty() {
-            return Err(e.loc.error(format!("{}: the mesh has no triangle with area", echo(name))));
+            return Err(e.loc.error(format!(
+                "{}: the mesh has no triangle with area",
+                echo(name)
+            )));
         }
         mesh.positions.reserve_exact(1);
         checked(e, mesh)
@@ -93,7 +98,10 @@ impl<'e> Builder<'e, '_> {
         let center = props.point("center")?.unwrap_or(DVec3::ZERO);
         let radius = props.float("radius")?.unwrap_or(1.0);
         let scales = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
-        let (lo, hi) = (scales.iter().cloned().fold(f64::MAX, f64::min), scales.iter().cloned().fold(0.0, f64::max));
+        let (lo, hi) = (
+            scales.iter().cloned().fold(f64::MAX, f64::min),
+            scales.iter().cloned().fold(0.0, f64::max),
+        );
         if hi - lo > 1e-6 * hi {
             self.problems.warn(
                 &e.loc,
@@ -109,7 +117,9 @@ impl<'e> Builder<'e, '_> {
         let center = m.transform_point3(center).as_vec3();
         let radius = (radius * scales.iter().sum::<f64>() / 3.0) as f32;
         if !(radius > 0.0 && radius.is_finite()) {
-            return Err(e.loc.error(format!("`radius`: must be positive, got {radius}")));
+            return Err(e
+                .loc
+                .error(format!("`radius`: must be positive, got {radius}")));
         }
         let sphere = Sphere { center, radius };
         let b = sphere.bounds();
@@ -122,7 +132,12 @@ impl<'e> Builder<'e, '_> {
 
 /// Every vertex within the coordinates luz can intersect.
 fn checked(e: &Elem, mesh: Mesh) -> Result<Geometry, SceneError> {
-    if let Some((i, p)) = mesh.positions.iter().enumerate().find(|(_, p)| !within_bounds(**p)) {
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !within_bounds(**p))
+    {
         return Err(e.loc.error(format!(
             "vertex {i} of the shape, at {p}, lies beyond ±1e12 (or is not finite) once transformed"
         )));
@@ -136,7 +151,9 @@ fn rectangle(e: &Elem, m: &DMat4) -> Result<Geometry, SceneError> {
     let (p0, p1, p3) = (p(-1.0, -1.0), p(1.0, -1.0), p(-1.0, 1.0));
     for c in [p0, p1, p3, p1 + p3 - p0] {
         if !within_bounds(c) {
-            return Err(e.loc.error(format!("a corner of the rectangle, {c}, lies beyond ±1e12")));
+            return Err(e
+                .loc
+                .error(format!("a corner of the rectangle, {c}, lies beyond ±1e12")));
         }
     }
     Quad::new(p0, p1 - p0, p3 - p0)
@@ -160,7 +177,10 @@ fn cube(m: &DMat4) -> Mesh {
                 p[b] = 2.0 * u - 1.0;
                 p[c] = 2.0 * v - 1.0;
                 mesh.positions.push(m.transform_point3(p).as_vec3());
-                mesh.uvs.as_mut().expect("uvs").push(Vec2::new(u as f32, v as f32));
+                mesh.uvs
+                    .as_mut()
+                    .expect("uvs")
+                    .push(Vec2::new(u as f32, v as f32));
             }
             // e_b × e_c = e_axis: counter-clockwise seen from outside.
             let tris = if sign > 0.0 {

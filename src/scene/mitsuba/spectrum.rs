@@ -39,7 +39,10 @@ pub(super) fn to_rgb(wavelengths: &[f64], values: &[f64], use_: Use) -> Option<R
         if w < wavelengths[0] || w > wavelengths[n - 1] {
             continue;
         }
-        let k = wavelengths.partition_point(|&x| x <= w).clamp(1, n.max(2) - 1) - 1;
+        let k = wavelengths
+            .partition_point(|&x| x <= w)
+            .clamp(1, n.max(2) - 1)
+            - 1;
         let v = if n == 1 {
             values[0]
         } else {
@@ -102,10 +105,16 @@ mod tests {
     fn a_flat_reflectance_is_grey_and_a_flat_emitter_is_not() {
         let w: Vec<f64> = (0..=10).map(|i| 360.0 + 47.0 * i as f64).collect();
         let grey = to_rgb(&w, &[0.5; 11], Use::Reflectance).unwrap();
-        assert!((grey - Rgb::splat(0.5)).abs().max_element() < 0.01, "{grey}");
+        assert!(
+            (grey - Rgb::splat(0.5)).abs().max_element() < 0.01,
+            "{grey}"
+        );
         let light = to_rgb(&w, &[1.0; 11], Use::Emission).unwrap();
         let flat = uniform(1.0, Use::Emission);
-        assert!((light - flat).abs().max_element() < 0.01, "{light} vs {flat}");
+        assert!(
+            (light - flat).abs().max_element() < 0.01,
+            "{light} vs {flat}"
+        );
         assert!(flat.x > flat.z, "{flat}");
     }
 

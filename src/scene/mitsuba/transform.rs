@@ -37,8 +37,8 @@ fn one(s: &Elem) -> Result<DMat4, SceneError> {
         "lookat" => lookat(s)?,
         other => {
             return Err(s.loc.error(format!(
-                "<transform>: unknown step <{other}> (known: translate, rotate, scale, matrix, lookat)"
-            )))
+            "<transform>: unknown step <{other}> (known: translate, rotate, scale, matrix, lookat)"
+        )))
         }
     })
 }
@@ -107,7 +107,8 @@ mod tests {
     use std::path::Path;
 
     fn transform(steps: &str) -> Result<DMat4, SceneError> {
-        let text = format!(r#"<scene version="3.0.0"><transform name="t">{steps}</transform></scene>"#);
+        let text =
+            format!(r#"<scene version="3.0.0"><transform name="t">{steps}</transform></scene>"#);
         let scene = Reader::new(&[]).scene(&text, Path::new("t.xml"))?;
         parse(&scene.children[0])
     }
@@ -119,13 +120,22 @@ mod tests {
     #[test]
     fn every_step_and_their_order() {
         let m = transform(r#"<scale value="2"/><translate x="1"/>"#).unwrap();
-        assert!(close(m.transform_point3(DVec3::ONE), DVec3::new(3.0, 2.0, 2.0)));
+        assert!(close(
+            m.transform_point3(DVec3::ONE),
+            DVec3::new(3.0, 2.0, 2.0)
+        ));
         let m = transform(r#"<rotate y="1" angle="90"/>"#).unwrap();
         assert!(close(m.transform_vector3(DVec3::X), -DVec3::Z));
         let m = transform(r#"<matrix value="1 0 0 5  0 1 0 6  0 0 1 7  0 0 0 1"/>"#).unwrap();
-        assert!(close(m.transform_point3(DVec3::ZERO), DVec3::new(5.0, 6.0, 7.0)));
+        assert!(close(
+            m.transform_point3(DVec3::ZERO),
+            DVec3::new(5.0, 6.0, 7.0)
+        ));
         let m = transform(r#"<lookat origin="0,0,5" target="0,0,0" up="0,1,0"/>"#).unwrap();
-        assert!(close(m.transform_point3(DVec3::ZERO), DVec3::new(0.0, 0.0, 5.0)));
+        assert!(close(
+            m.transform_point3(DVec3::ZERO),
+            DVec3::new(0.0, 0.0, 5.0)
+        ));
         assert!(close(m.transform_vector3(DVec3::Z), -DVec3::Z));
         assert!(close(m.transform_vector3(DVec3::X), -DVec3::X));
     }

@@ -315,8 +315,11 @@ mod tests {
 
     #[test]
     fn malformed_xml_is_located() {
-        let err = read("<scene version=\"3.0.0\">\n  <shape type=\"obj\">\n</scene>", &[])
-            .unwrap_err();
+        let err = read(
+            "<scene version=\"3.0.0\">\n  <shape type=\"obj\">\n</scene>",
+            &[],
+        )
+        .unwrap_err();
         assert_eq!(err.location.map(|l| l.0), Some(3));
         assert!(err.message.starts_with("malformed XML"), "{}", err.message);
     }
@@ -324,7 +327,9 @@ mod tests {
     #[test]
     fn old_files_are_upgraded_and_new_ones_are_not() {
         let text = |v: &str| {
-            format!(r#"<scene version="{v}"><integrator type="path"><integer name="maxDepth" value="3"/></integrator></scene>"#)
+            format!(
+                r#"<scene version="{v}"><integrator type="path"><integer name="maxDepth" value="3"/></integrator></scene>"#
+            )
         };
         let name = |e: Elem| e.children[0].children[0].attr("name").unwrap().to_string();
         assert_eq!(name(read(&text("0.5.0"), &[]).unwrap()), "max_depth");
