@@ -364,3 +364,26 @@ fn cbox_is_as_bright_as_mitsuba_renders_it() {
         );
     }
 }
+
+#[test]
+fn ref_cycles_and_include_cycles_are_errors_not_overflows() {
+    let err = ok_err(
+        "cycle",
+        r#"<bsdf type="twosided" id="a"><ref id="a"/></bsdf>
+        <shape type="sphere"><ref id="a"/></shape>"#,
+    );
+    assert!(err.contains("nest deeper"), "{err}");
+    let main = scene(r#"<include filename="s.xml"/>"#);
+    let err = load(
+        "include-cycle",
+        &[("s.xml", &main)],
+        &LoadOptions::default(),
+    )
+    .unwrap_err();
+    assert!(err.message.contains("cycle"), "{err}");
+    let err = ok_err(
+        "dup",
+        r#"<bsdf type="diffuse" id="x"/><bsdf type="diffuse" id="x"/>"#,
+    );
+    assert!(err.contains("given twice"), "{err}");
+}

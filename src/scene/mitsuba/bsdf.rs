@@ -60,7 +60,22 @@ const METALS: &[(&str, [f32; 3])] = &[
     ("Cr", [0.550, 0.556, 0.554]),
 ];
 
+/// Nested BSDFs (twosided, mask, ...) go at most this deep.
+const MAX_NESTING: usize = 16;
+
 pub(super) fn bsdf(b: &mut Builder, e: &Elem) -> Result<Bsdf, SceneError> {
+    if b.bsdf_depth >= MAX_NESTING {
+        return Err(e.loc.error(format!(
+            "BSDFs nest deeper than {MAX_NESTING} (a <ref> to a BSDF that contains it?)"
+        )));
+    }
+    b.bsdf_depth += 1;
+    let out = build(b, e);
+    b.bsdf_depth -= 1;
+    out
+}
+
+fn build(b: &mut Builder, e: &Elem) -> Result<Bsdf, SceneError> {
     let props = Props::new(e, b.ids);
     let name = e.attr("id").unwrap_or("").to_string();
     let mut out = match e.kind() {

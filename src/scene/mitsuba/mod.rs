@@ -131,6 +131,9 @@ struct Builder<'e, 'i> {
     materials: Vec<Material>,
     material_ids: HashMap<*const Elem, (u32, Option<UvTransform>)>,
     default_material: Option<u32>,
+    /// How many BSDFs are being built inside one another: a `<ref>` cycle
+    /// would otherwise recurse for ever.
+    bsdf_depth: usize,
     shapes: Vec<Shape>,
     point_lights: Vec<PointLight>,
     environment: Option<Rgb>,
@@ -147,6 +150,7 @@ impl<'e, 'i> Builder<'e, 'i> {
             materials: Vec::new(),
             material_ids: HashMap::new(),
             default_material: None,
+            bsdf_depth: 0,
             shapes: Vec::new(),
             point_lights: Vec::new(),
             environment: None,

@@ -79,6 +79,10 @@ impl Elem {
     }
 }
 
+/// Elements nest at most this deep: the tree is walked recursively, and a
+/// scene needs a handful of levels.
+const MAX_DEPTH: usize = 64;
+
 /// Includes nest at most this deep (a file including itself is refused
 /// before that, by name).
 const MAX_INCLUDE_DEPTH: usize = 32;
@@ -123,7 +127,7 @@ impl Reader {
         }
         let version = self.version(root, &loc)?;
         self.defaults(&doc, root, &file)?;
-        let children = self.children(&doc, root, &file, version)?;
+        let children = self.children(&doc, root, &file, version, 0)?;
         self.stack.pop();
         Ok(Elem {
             tag: "scene".into(),
@@ -176,14 +180,18 @@ impl Reader {
         node: roxmltree::Node,
         file: &Rc<PathBuf>,
         version: (u32, u32),
+        depth: usize,
     ) -> Result<Vec<Elem>, SceneError> {
         let mut out = Vec::new();
         for child in node.children().filter(|n| n.is_element()) {
             let loc = location(doc, child, file);
+            if depth >= MAX_DEPTH {
+                return Err(loc.error(format!("elements nest deeper than {MAX_DEPTH} levels")));
+            }
             match child.tag_name().name() {
                 "default" => {}
                 "include" => out.extend(self.include(child, &loc)?),
-                _ => out.push(self.element(doc, child, file, version, loc)?),
+                _ => out.push(self.element(doc, child, file, version, loc, depth)?),
             }
         }
         if version < (2, 0) {
@@ -199,6 +207,7 @@ impl Reader {
         file: &Rc<PathBuf>,
         version: (u32, u32),
         loc: Loc,
+        depth: usize,
     ) -> Result<Elem, SceneError> {
         let mut attrs = Vec::new();
         for a in node.attributes() {
@@ -216,7 +225,7 @@ impl Reader {
         Ok(Elem {
             tag,
             attrs,
-            children: self.children(doc, node, file, version)?,
+            children: self.children(doc, node, file, version, depth + 1)?,
             loc,
         })
     }
@@ -311,6 +320,17 @@ mod tests {
         .unwrap_err();
         assert_eq!(err.location, Some((1, 24)));
         assert!(err.message.contains("$nope"), "{}", err.message);
+    }
+
+    #[test]
+    fn deep_nesting_is_refused_not_overflowed() {
+        let text = format!(
+            "<scene version=\"3.0.0\">{}{}</scene>",
+            "<a>".repeat(100_000),
+            "</a>".repeat(100_000)
+        );
+        let err = read(&text, &[]).unwrap_err();
+        assert!(err.message.contains("nest deeper"), "{}", err.message);
     }
 
     #[test]
