@@ -288,6 +288,19 @@ fn malformed_xml_and_strict_exit_with_status_2() {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(String::from_utf8_lossy(&out.stderr).contains("cylinder"));
+    // Parameters belong to XML scenes: on a TOML scene -D is refused.
+    let toml = dir.join("s.toml");
+    std::fs::write(&toml, "[camera]\neye = [0, 0, 1]\ntarget = [0, 0, 0]\n").unwrap();
+    let out = luz(&[
+        "render",
+        toml.to_str().unwrap(),
+        "-D",
+        "a=1",
+        "-o",
+        png.to_str().unwrap(),
+    ]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("-D"));
 }
 
 /// The folder of the shared Mitsuba scenes, or `None` (and a note).
