@@ -12,7 +12,7 @@ use crate::distributed::task::{self, Task};
 use crate::image::io::{self as imageio, WriteOptions};
 use crate::render::{Film, Progress, RenderOptions, RenderStats};
 use crate::sampling::SamplerKind;
-use crate::scene::{Scene, SceneError};
+use crate::scene::{LoadOptions, Scene, SceneError};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -26,12 +26,14 @@ pub struct Overrides {
     pub russian_roulette: Option<bool>,
     pub sampler: Option<SamplerKind>,
     pub resolution: Option<(u32, u32)>,
+    /// Mitsuba parameters (`-D`) and `--strict`.
+    pub load: LoadOptions,
 }
 
 impl Overrides {
     /// Loads the scene at `path` and applies the overrides.
     pub fn load(&self, path: &Path) -> Result<Scene, SceneError> {
-        let mut scene = crate::scene::load(path)?;
+        let mut scene = crate::scene::load_with(path, &self.load)?;
         if let Some((w, h)) = self.resolution {
             scene.camera.width = w;
             scene.camera.height = h;

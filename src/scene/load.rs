@@ -29,16 +29,29 @@ pub struct SceneError {
     pub message: String,
 }
 
+/// How a scene file is read: the parameters `-D KEY=VALUE` gives Mitsuba
+/// XML's `$KEY`, and whether warnings are errors (`--strict`).
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    pub defines: Vec<(String, String)>,
+    pub strict: bool,
+}
+
 /// Loads and validates the scene file at `path`, which must be a regular
 /// file (a FIFO would block the read for ever); the scene's warnings
 /// ([`Scene::warnings`]) go to stderr, one line each.
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
+    load_with(path, &LoadOptions::default())
+}
+
+/// [`load`] with options.
+pub fn load_with(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     let data = read_regular_file(path).map_err(|e| SceneError {
         file: path.to_path_buf(),
         location: None,
         message: format!("cannot read the scene file: {e}"),
     })?;
-    let scene = load_bytes(&data, path)?;
+    let scene = load_bytes_with(&data, path, options)?;
     for w in &scene.warnings {
         eprintln!("luz: warning: {w}");
     }
@@ -48,6 +61,15 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 /// Loads a scene from the bytes of a scene file, which must be UTF-8;
 /// `path` names it in errors and anchors relative file names.
 pub fn load_bytes(data: &[u8], path: &Path) -> Result<Scene, SceneError> {
+    load_bytes_with(data, path, &LoadOptions::default())
+}
+
+/// [`load_bytes`] with options; a `.xml` file is read as Mitsuba XML.
+pub fn load_bytes_with(
+    data: &[u8],
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<Scene, SceneError> {
     let text = std::str::from_utf8(data).map_err(|e| SceneError {
         file: path.to_path_buf(),
         location: Some(line_column(data, e.valid_up_to())),
@@ -56,7 +78,28 @@ pub fn load_bytes(data: &[u8], path: &Path) -> Result<Scene, SceneError> {
             e.valid_up_to()
         ),
     })?;
-    load_str(text, path)
+    let error = |message: String| SceneError {
+        file: path.to_path_buf(),
+        location: None,
+        message,
+    };
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+    {
+        return super::mitsuba::load_str(text, path, options);
+    }
+    if let Some((key, _)) = options.defines.first() {
+        return Err(error(format!(
+            "-D {}: parameters are for Mitsuba XML scenes (.xml); this is a TOML scene",
+            echo(key)
+        )));
+    }
+    let scene = load_str(text, path)?;
+    match scene.warnings.first() {
+        Some(w) if options.strict => Err(error(format!("{w} (an error with --strict)"))),
+        _ => Ok(scene),
+    }
 }
 
 /// Loads a scene from `text`; `path` names it in errors and anchors

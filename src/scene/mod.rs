@@ -1,16 +1,17 @@
 //! The scene model: immutable plain data built by `load` from a TOML file
-//! (or directly, in tests) and shared by every backend and the integrator.
+//! or a Mitsuba XML file (or directly, in tests) and shared by every backend and the integrator.
 
 pub mod camera;
 pub mod light;
 pub mod load;
 pub mod material;
 pub mod mesh_io;
+pub mod mitsuba;
 pub mod texture;
 
 pub use camera::Camera;
 pub use light::{LightSampler, PointLight};
-pub use load::{load, load_bytes, load_str, SceneError};
+pub use load::{load, load_bytes, load_bytes_with, load_str, load_with, LoadOptions, SceneError};
 pub use material::{Lobes, Material, Shading};
 pub use texture::{Texture, UvTransform};
 

@@ -9,6 +9,7 @@ use luz::image::io::WriteOptions;
 use luz::image::tonemap::{ToneMap, ToneMapParams};
 use luz::job::Overrides;
 use luz::sampling::SamplerKind;
+use luz::scene::LoadOptions;
 use luz::study::Vary;
 use std::ops::Range;
 use std::path::PathBuf;
@@ -223,6 +224,13 @@ pub(crate) struct SettingsArgs {
     /// Embree's robust (watertight, slower) traversal.
     #[arg(long)]
     pub(crate) embree_robust: bool,
+    /// A parameter of a Mitsuba XML scene: `$KEY` becomes VALUE (repeatable).
+    #[arg(short = 'D', long = "define", value_name = "KEY=VALUE", value_parser = parse_define)]
+    pub(crate) defines: Vec<(String, String)>,
+    /// Refuse the scene when loading it warns (a Mitsuba feature luz
+    /// substitutes, mesh data it does not use).
+    #[arg(long)]
+    pub(crate) strict: bool,
 }
 
 impl SettingsArgs {
@@ -242,6 +250,10 @@ impl SettingsArgs {
             russian_roulette: self.russian_roulette,
             sampler: self.sampler,
             resolution: self.resolution,
+            load: LoadOptions {
+                defines: self.defines.clone(),
+                strict: self.strict,
+            },
         }
     }
 
@@ -327,6 +339,20 @@ pub(crate) fn parse_on_off(s: &str) -> Result<bool, String> {
         "on" | "true" => Ok(true),
         "off" | "false" => Ok(false),
         _ => Err(format!("expected on or off, found {}", luz::echo::echo(s))),
+    }
+}
+
+pub(crate) fn parse_define(s: &str) -> Result<(String, String), String> {
+    match s.split_once('=') {
+        Some((k, v))
+            if !k.is_empty() && k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') =>
+        {
+            Ok((k.to_string(), v.to_string()))
+        }
+        _ => Err(format!(
+            "expected KEY=VALUE with a KEY of letters, digits and _, found {}",
+            luz::echo::echo(s)
+        )),
     }
 }
 

@@ -1,0 +1,397 @@
+//! Mitsuba BSDFs mapped onto luz's material (Lambertian kd, mirror ks,
+//! refraction kt, Fresnel dielectric). What does not map exactly is
+//! substituted, with a warning that says by what.
+
+use super::props::{Props, Value};
+use super::spectrum::Use;
+use super::xml::Elem;
+use super::Builder;
+use crate::echo::echo;
+use crate::math::Rgb;
+use crate::scene::{Material, SceneError, UvTransform};
+
+/// A material and the uv transform its texture asks of the shapes using it.
+#[derive(Clone, Debug)]
+pub(super) struct Bsdf {
+    pub material: Material,
+    pub uv: Option<UvTransform>,
+}
+
+impl Bsdf {
+    fn of(material: Material) -> Self {
+        Self { material, uv: None }
+    }
+}
+
+/// Mitsuba's named indices of refraction (include/mitsuba/render/ior.h).
+const IORS: &[(&str, f64)] = &[
+    ("vacuum", 1.0),
+    ("helium", 1.000036),
+    ("hydrogen", 1.000132),
+    ("air", 1.000277),
+    ("carbon dioxide", 1.00045),
+    ("water", 1.3330),
+    ("acetone", 1.36),
+    ("ethanol", 1.361),
+    ("carbon tetrachloride", 1.461),
+    ("glycerol", 1.4729),
+    ("benzene", 1.501),
+    ("silicone oil", 1.52045),
+    ("bromine", 1.661),
+    ("water ice", 1.31),
+    ("fused quartz", 1.458),
+    ("pyrex", 1.470),
+    ("acrylic glass", 1.49),
+    ("polypropylene", 1.49),
+    ("bk7", 1.5046),
+    ("sodium chloride", 1.544),
+    ("amber", 1.55),
+    ("pet", 1.5750),
+    ("diamond", 2.419),
+];
+
+/// Normal-incidence reflectance (linear sRGB) of Mitsuba's named
+/// conductors that luz knows; others are substituted by aluminium.
+const METALS: &[(&str, [f32; 3])] = &[
+    ("Al", [0.913, 0.922, 0.924]),
+    ("Ag", [0.972, 0.960, 0.915]),
+    ("Au", [1.000, 0.782, 0.344]),
+    ("Cu", [0.955, 0.638, 0.538]),
+    ("Cr", [0.550, 0.556, 0.554]),
+];
+
+/// Nested BSDFs (twosided, mask, ...) go at most this deep.
+const MAX_NESTING: usize = 16;
+
+pub(super) fn bsdf(b: &mut Builder, e: &Elem) -> Result<Bsdf, SceneError> {
+    if b.bsdf_depth >= MAX_NESTING {
+        return Err(e.loc.error(format!(
+            "BSDFs nest deeper than {MAX_NESTING} (a <ref> to a BSDF that contains it?)"
+        )));
+    }
+    b.bsdf_depth += 1;
+    let out = build(b, e);
+    b.bsdf_depth -= 1;
+    out
+}
+
+fn build(b: &mut Builder, e: &Elem) -> Result<Bsdf, SceneError> {
+    let props = Props::new(e, b.ids);
+    let name = e.attr("id").unwrap_or("").to_string();
+    let mut out = match e.kind() {
+        "diffuse" => diffuse(b, &props)?,
+        "twosided" | "mask" | "bumpmap" | "normalmap" | "blendbsdf" => wrapper(b, &props)?,
+        "conductor" | "roughconductor" => conductor(b, &props)?,
+        "dielectric" | "roughdielectric" => dielectric(b, &props)?,
+        "thindielectric" => thin_dielectric(b, &props)?,
+        "plastic" | "roughplastic" => plastic(b, &props)?,
+        // Light passes straight through: refraction with index 1.
+        "null" => Bsdf::of(Material {
+            kd: Rgb::ZERO,
+            kt: Rgb::ONE,
+            ior: 1.0,
+            ..Material::default()
+        }),
+        other => {
+            b.problems.warn(
+                &e.loc,
+                format!("<bsdf type=\"{other}\"> is not supported; substituted a 0.5 grey diffuse"),
+            )?;
+            // Its properties are part of what was substituted.
+            for c in &e.children {
+                if let Some(n) = c.attr("name") {
+                    props.accept(n);
+                }
+            }
+            Bsdf::of(Material::default())
+        }
+    };
+    out.material.name = name;
+    props.finish(&mut b.problems)?;
+    Ok(out)
+}
+
+/// A colour or texture property as kd: (albedo, texture, uv transform).
+fn albedo(
+    b: &mut Builder,
+    props: &Props,
+    name: &str,
+    default: f32,
+) -> Result<(Rgb, Option<u32>, Option<UvTransform>), SceneError> {
+    match props.color(name, Use::Reflectance, &mut b.problems)? {
+        None => Ok((Rgb::splat(default), None, None)),
+        Some(Value::Rgb(c)) => Ok((clamp_albedo(b, props, name, c)?, None, None)),
+        Some(Value::Texture(t)) => {
+            let (texture, uv) = b.texture(t)?;
+            Ok((Rgb::ONE, Some(texture), uv))
+        }
+    }
+}
+
+/// An albedo above 1 would create energy in luz; it is clamped.
+fn clamp_albedo(b: &mut Builder, props: &Props, name: &str, c: Rgb) -> Result<Rgb, SceneError> {
+    if c.max_element() > 1.0 {
+        b.problems.warn(
+            &props.elem.loc,
+            format!(
+                "`{name}` {c} exceeds 1 (the surface would create energy in luz); clamped to 1"
+            ),
+        )?;
+    }
+    Ok(c.min(Rgb::ONE))
+}
+
+fn diffuse(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let (kd, texture, uv) = albedo(b, props, "reflectance", 0.5)?;
+    Ok(Bsdf {
+        material: Material {
+            kd,
+            texture,
+            ..Material::default()
+        },
+        uv,
+    })
+}
+
+/// twosided (luz reflects on both sides anyway) and the wrappers luz
+/// cannot do, which keep their nested BSDF.
+fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let e = props.elem;
+    let nested = props.objects("bsdf")?;
+    let Some(first) = nested.first() else {
+        return Err(e
+            .loc
+            .error(format!("{} needs a nested <bsdf>", e.describe())));
+    };
+    let what = match e.kind() {
+        "twosided" if nested.len() > 1 => Some("a different back side is not supported"),
+        "twosided" => None,
+        "mask" => Some("the opacity mask is left out"),
+        "bumpmap" | "normalmap" => Some("the shading-normal perturbation is left out"),
+        _ => Some("luz does not blend BSDFs"),
+    };
+    if let Some(what) = what {
+        b.problems.warn(
+            &e.loc,
+            format!(
+                "{}: {what}; substituted its first nested BSDF",
+                e.describe()
+            ),
+        )?;
+        for n in ["opacity", "weight", "texture", "scale", "normalmap"] {
+            props.accept(n);
+        }
+    }
+    bsdf(b, first)
+}
+
+fn conductor(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let e = props.elem;
+    let mut what = Vec::new();
+    if e.kind() == "roughconductor" {
+        for n in [
+            "alpha",
+            "alpha_u",
+            "alpha_v",
+            "distribution",
+            "sample_visible",
+        ] {
+            props.accept(n);
+        }
+        what.push("the roughness is substituted by a perfect mirror");
+    }
+    let f0 = conductor_f0(b, props, &mut what)?;
+    let tint = match props.color("specular_reflectance", Use::Reflectance, &mut b.problems)? {
+        Some(Value::Rgb(c)) => c,
+        Some(Value::Texture(_)) => {
+            what.push("the specular_reflectance texture is substituted by 1");
+            Rgb::ONE
+        }
+        None => Rgb::ONE,
+    };
+    if !what.is_empty() {
+        b.problems
+            .warn(&e.loc, format!("{}: {}", e.describe(), what.join("; ")))?;
+    }
+    let ks = clamp_albedo(b, props, "specular_reflectance", f0 * tint)?;
+    Ok(Bsdf::of(Material {
+        kd: Rgb::ZERO,
+        ks,
+        ..Material::default()
+    }))
+}
+
+/// The conductor's reflectance at normal incidence, from `eta`/`k` or a
+/// named `material` (`none`, the default, is a perfect mirror).
+fn conductor_f0(b: &mut Builder, props: &Props, what: &mut Vec<&str>) -> Result<Rgb, SceneError> {
+    let e = props.elem;
+    let ext = props.float("ext_eta")?.unwrap_or(1.0);
+    let eta = props.color("eta", Use::Emission, &mut b.problems)?;
+    let k = props.color("k", Use::Emission, &mut b.problems)?;
+    let material = props.string("material")?.unwrap_or("none");
+    if eta.is_none() && material != "none" {
+        what.push(
+            "the Fresnel term's change with angle is substituted by its value at normal incidence",
+        );
+        return match METALS.iter().find(|(m, _)| *m == material) {
+            Some((_, f0)) => Ok(Rgb::from(*f0)),
+            None => {
+                b.problems.warn(
+                    &e.loc,
+                    format!(
+                        "`material` {}: luz knows Al, Ag, Au, Cu, Cr; substituted Al",
+                        echo(material)
+                    ),
+                )?;
+                Ok(Rgb::from(METALS[0].1))
+            }
+        };
+    }
+    let rgb = |v: Option<Value>| match v {
+        Some(Value::Rgb(c)) => c,
+        _ => Rgb::ZERO,
+    };
+    let (n, k) = (rgb(eta) / ext as f32, rgb(k) / ext as f32);
+    if n != Rgb::ZERO || k != Rgb::ZERO {
+        what.push(
+            "the Fresnel term's change with angle is substituted by its value at normal incidence",
+        );
+    }
+    let one = Rgb::ONE;
+    let f0 = ((n - one) * (n - one) + k * k) / ((n + one) * (n + one) + k * k);
+    Ok(f0.min(one))
+}
+
+/// `int_ior` / `ext_ior`: a number or one of Mitsuba's names.
+fn ior(props: &Props, name: &str, default: f64) -> Result<f64, SceneError> {
+    let Some(e) = props.get(name) else {
+        return Ok(default);
+    };
+    let v = e.need("value")?;
+    if let Ok(x) = v.trim().parse::<f64>() {
+        if x > 0.0 && x.is_finite() {
+            return Ok(x);
+        }
+    }
+    IORS.iter()
+        .find(|(n, _)| *n == v.trim())
+        .map(|(_, x)| *x)
+        .ok_or_else(|| {
+            e.loc.error(format!(
+                "`{name}`: expected a positive number or a named index ({}), found {}",
+                IORS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", "),
+                echo(v)
+            ))
+        })
+}
+
+fn relative_ior(props: &Props, int_default: f64) -> Result<f64, SceneError> {
+    Ok(ior(props, "int_ior", int_default)? / ior(props, "ext_ior", 1.000277)?)
+}
+
+fn dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let e = props.elem;
+    if e.kind() == "roughdielectric" {
+        for n in [
+            "alpha",
+            "alpha_u",
+            "alpha_v",
+            "distribution",
+            "sample_visible",
+        ] {
+            props.accept(n);
+        }
+        b.problems.warn(
+            &e.loc,
+            format!(
+                "{}: the roughness is substituted by a smooth dielectric",
+                e.describe()
+            ),
+        )?;
+    }
+    let ior = relative_ior(props, 1.5046)?;
+    let kt = tint(b, props, "specular_transmittance")?;
+    if tint(b, props, "specular_reflectance")? != Rgb::ONE {
+        b.problems.warn(
+            &e.loc,
+            format!("{}: luz's dielectric reflects by the Fresnel term alone; `specular_reflectance` is substituted by 1", e.describe()),
+        )?;
+    }
+    Ok(Bsdf::of(Material {
+        kd: Rgb::ZERO,
+        kt,
+        ior: ior as f32,
+        dielectric: true,
+        ..Material::default()
+    }))
+}
+
+/// A constant tint in [0, 1], 1 when absent.
+fn tint(b: &mut Builder, props: &Props, name: &str) -> Result<Rgb, SceneError> {
+    match props.color(name, Use::Reflectance, &mut b.problems)? {
+        Some(Value::Rgb(c)) => clamp_albedo(b, props, name, c),
+        Some(Value::Texture(_)) => {
+            b.problems.warn(
+                &props.elem.loc,
+                format!("`{name}`: a texture here is not supported; substituted 1"),
+            )?;
+            Ok(Rgb::ONE)
+        }
+        None => Ok(Rgb::ONE),
+    }
+}
+
+/// Normal-incidence Fresnel reflectance of a dielectric interface.
+fn f0(ior: f64) -> f32 {
+    (((ior - 1.0) / (ior + 1.0)).powi(2)) as f32
+}
+
+/// A thin sheet reflects R + T²R/(1 − R²) = 2R/(1 + R) and passes the
+/// rest straight on: a mirror and refraction with index 1.
+fn thin_dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let r = f0(relative_ior(props, 1.5046)?);
+    let r = 2.0 * r / (1.0 + r);
+    b.problems.warn(
+        &props.elem.loc,
+        format!("{}: substituted a fixed mirror of {r:.4} (its normal-incidence reflectance) plus straight transmission; the Fresnel term's change with angle is left out", props.elem.describe()),
+    )?;
+    let ks = tint(b, props, "specular_reflectance")? * r;
+    let kt = tint(b, props, "specular_transmittance")? * (1.0 - r);
+    Ok(Bsdf::of(Material {
+        kd: Rgb::ZERO,
+        ks,
+        kt,
+        ior: 1.0,
+        ..Material::default()
+    }))
+}
+
+/// kd under a coating: kd·(1 − F0) + ks·F0, both at normal incidence.
+fn plastic(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let e = props.elem;
+    let ior = relative_ior(props, 1.49)?;
+    let f = f0(ior);
+    let (kd, texture, uv) = albedo(b, props, "diffuse_reflectance", 0.5)?;
+    let ks = tint(b, props, "specular_reflectance")? * f;
+    for n in ["alpha", "distribution", "nonlinear", "sample_visible"] {
+        props.accept(n);
+    }
+    let rough = if e.kind() == "roughplastic" {
+        "the roughness is substituted by a smooth coating; "
+    } else {
+        ""
+    };
+    b.problems.warn(
+        &e.loc,
+        format!("{}: {rough}substituted kd·(1 − F0) + a mirror of F0 = {f:.4} (the coating's normal-incidence Fresnel reflectance)", e.describe()),
+    )?;
+    Ok(Bsdf {
+        material: Material {
+            kd: kd * (1.0 - f),
+            ks,
+            texture,
+            ..Material::default()
+        },
+        uv,
+    })
+}

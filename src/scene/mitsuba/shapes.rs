@@ -1,0 +1,235 @@
+//! `<shape>`: obj, ply, rectangle, cube, disk and sphere, placed by
+//! `to_world`, with `flip_normals`, their BSDF and an area emitter.
+
+use super::props::Props;
+use super::xml::Elem;
+use super::Builder;
+use crate::echo::echo;
+use crate::geometry::{within_bounds, Geometry, Mesh, Quad, Sphere};
+use crate::math::Vec2;
+use crate::scene::{SceneError, Shape};
+use glam::{DMat4, DVec3};
+
+/// Segments of the polygon that stands in for a disk.
+const DISK_SEGMENTS: u32 = 64;
+
+impl<'e> Builder<'e, '_> {
+    pub(super) fn shape(&mut self, e: &'e Elem) -> Result<(), SceneError> {
+        let props = Props::new(e, self.ids);
+        let m = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let flip = props.boolean("flip_normals")?.unwrap_or(false);
+        // luz shades with the geometric normal, which is what this asks.
+        props.accept("face_normals");
+        let geometry = match e.kind() {
+            "obj" | "ply" => self.mesh_file(&props, &m)?,
+            "rectangle" => rectangle(e, &m)?,
+            "cube" => checked(e, cube(&m))?,
+            "disk" => {
+                self.problems.warn(
+                    &e.loc,
+                    format!("<shape type=\"disk\">: substituted a {DISK_SEGMENTS}-sided polygon of the same area"),
+                )?;
+                checked(e, disk(&m))?
+            }
+            "sphere" => self.sphere(&props, &m, flip)?,
+            other => {
+                props.finish(&mut self.problems).ok();
+                return self.problems.warn(
+                    &e.loc,
+                    format!("<shape type=\"{other}\"> is not supported; left out of the scene"),
+                );
+            }
+        };
+        let geometry = if flip { flipped(geometry) } else { geometry };
+        let (material, uv) = match props.objects("bsdf")?.first() {
+            Some(b) => self.material_of(b)?,
+            None => (self.default_material(), None),
+        };
+        let mut shape = Shape::new(geometry, material);
+        if let Some(uv) = uv {
+            shape.uv_transform = uv;
+        }
+        for emitter in props.objects("emitter")? {
+            self.area_emitter(emitter, &mut shape)?;
+        }
+        props.finish(&mut self.problems)?;
+        self.shapes.push(shape);
+        Ok(())
+    }
+
+    fn mesh_file(&mut self, props: &Props, m: &DMat4) -> Result<Geometry, SceneError> {
+        let e = props.elem;
+        let name = props
+            .string("filename")?
+            .ok_or_else(|| e.loc.error(format!("{} needs `filename`", e.describe())))?;
+        let path = self.file(e, name)?;
+        let (mut mesh, mut notes) = crate::scene::mesh_io::read_mesh(&path)
+            .map_err(|err| e.loc.error(format!("`filename`: {err}")))?;
+        if *m != DMat4::IDENTITY {
+            mesh.transform(&m.as_mat4());
+            let before = mesh.indices.len();
+            let dropped =
+                crate::scene::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
+            if dropped > 0 {
+                notes.push(format!(
+                    "dropped {dropped} of {before} triangles, degenerate once transformed"
+                ));
+            }
+        }
+        // Mitsuba's loaders read normals and uvs luz may not use; which
+        // ones is said by the mesh reader.
+        props.accept("face_normals");
+        if !notes.is_empty() {
+            self.problems
+                .warn(&e.loc, format!("{}: {}", path.display(), notes.join("; ")))?;
+        }
+        if mesh.indices.is_empty() {
+            return Err(e.loc.error(format!(
+                "{}: the mesh has no triangle with area",
+                echo(name)
+            )));
+        }
+        mesh.positions.reserve_exact(1);
+        checked(e, mesh)
+    }
+
+    fn sphere(&mut self, props: &Props, m: &DMat4, flip: bool) -> Result<Geometry, SceneError> {
+        let e = props.elem;
+        let center = props.point("center")?.unwrap_or(DVec3::ZERO);
+        let radius = props.float("radius")?.unwrap_or(1.0);
+        let scales = [m.x_axis, m.y_axis, m.z_axis].map(|a| a.truncate().length());
+        let (lo, hi) = (
+            scales.iter().cloned().fold(f64::MAX, f64::min),
+            scales.iter().cloned().fold(0.0, f64::max),
+        );
+        if hi - lo > 1e-6 * hi {
+            self.problems.warn(
+                &e.loc,
+                "`to_world` scales the sphere unevenly; luz's spheres are round: substituted the mean scale",
+            )?;
+        }
+        if flip && !props.objects("emitter")?.is_empty() {
+            self.problems.warn(
+                &e.loc,
+                "`flip_normals`: luz's spheres emit outwards only; the flip is left out",
+            )?;
+        }
+        let center = m.transform_point3(center).as_vec3();
+        let radius = (radius * scales.iter().sum::<f64>() / 3.0) as f32;
+        if !(radius > 0.0 && radius.is_finite()) {
+            return Err(e
+                .loc
+                .error(format!("`radius`: must be positive, got {radius}")));
+        }
+        let sphere = Sphere { center, radius };
+        let b = sphere.bounds();
+        if !within_bounds(b.min) || !within_bounds(b.max) {
+            return Err(e.loc.error("the sphere reaches beyond ±1e12"));
+        }
+        Ok(Geometry::Sphere(sphere))
+    }
+}
+
+/// Every vertex within the coordinates luz can intersect.
+fn checked(e: &Elem, mesh: Mesh) -> Result<Geometry, SceneError> {
+    if let Some((i, p)) = mesh
+        .positions
+        .iter()
+        .enumerate()
+        .find(|(_, p)| !within_bounds(**p))
+    {
+        return Err(e.loc.error(format!(
+            "vertex {i} of the shape, at {p}, lies beyond ±1e12 (or is not finite) once transformed"
+        )));
+    }
+    Ok(Geometry::Mesh(mesh))
+}
+
+/// The square [-1, 1]² at z = 0, front +z.
+fn rectangle(e: &Elem, m: &DMat4) -> Result<Geometry, SceneError> {
+    let p = |x: f64, y: f64| m.transform_point3(DVec3::new(x, y, 0.0)).as_vec3();
+    let (p0, p1, p3) = (p(-1.0, -1.0), p(1.0, -1.0), p(-1.0, 1.0));
+    for c in [p0, p1, p3, p1 + p3 - p0] {
+        if !within_bounds(c) {
+            return Err(e
+                .loc
+                .error(format!("a corner of the rectangle, {c}, lies beyond ±1e12")));
+        }
+    }
+    Quad::new(p0, p1 - p0, p3 - p0)
+        .map(Geometry::Quad)
+        .ok_or_else(|| e.loc.error("`to_world` flattens the rectangle to no area"))
+}
+
+/// The cube [-1, 1]³: four vertices per face, uvs in [0, 1]² on each.
+fn cube(m: &DMat4) -> Mesh {
+    let mut mesh = Mesh {
+        uvs: Some(Vec::new()),
+        ..Mesh::default()
+    };
+    for axis in 0..3 {
+        for sign in [1.0, -1.0] {
+            let (b, c) = ((axis + 1) % 3, (axis + 2) % 3);
+            let base = mesh.positions.len() as u32;
+            for (u, v) in [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)] {
+                let mut p = DVec3::ZERO;
+                p[axis] = sign;
+                p[b] = 2.0 * u - 1.0;
+                p[c] = 2.0 * v - 1.0;
+                mesh.positions.push(m.transform_point3(p).as_vec3());
+                mesh.uvs
+                    .as_mut()
+                    .expect("uvs")
+                    .push(Vec2::new(u as f32, v as f32));
+            }
+            // e_b × e_c = e_axis: counter-clockwise seen from outside.
+            let tris = if sign > 0.0 {
+                [[0, 1, 2], [0, 2, 3]]
+            } else {
+                [[0, 2, 1], [0, 3, 2]]
+            };
+            mesh.indices.extend(tris.map(|t| t.map(|i| base + i)));
+        }
+    }
+    mesh
+}
+
+/// The unit disk at z = 0, front +z, as a polygon of the disk's area.
+fn disk(m: &DMat4) -> Mesh {
+    let n = DISK_SEGMENTS;
+    let step = std::f64::consts::TAU / n as f64;
+    let polygon_area = 0.5 * n as f64 * step.sin();
+    let r = (std::f64::consts::PI / polygon_area).sqrt();
+    let mut positions = vec![m.transform_point3(DVec3::ZERO).as_vec3()];
+    let mut uvs = vec![Vec2::ZERO];
+    for i in 0..n {
+        let phi = i as f64 * step;
+        let p = DVec3::new(r * phi.cos(), r * phi.sin(), 0.0);
+        positions.push(m.transform_point3(p).as_vec3());
+        uvs.push(Vec2::new(1.0, i as f32 / n as f32));
+    }
+    let indices = (0..n).map(|i| [0, 1 + i, 1 + (i + 1) % n]).collect();
+    Mesh {
+        positions,
+        indices,
+        uvs: Some(uvs),
+    }
+}
+
+/// The same surface facing the other way.
+fn flipped(g: Geometry) -> Geometry {
+    match g {
+        Geometry::Mesh(mut mesh) => {
+            for t in &mut mesh.indices {
+                t.swap(1, 2);
+            }
+            Geometry::Mesh(mesh)
+        }
+        // The same edges swapped span the same area: never `None`.
+        Geometry::Quad(q) => match Quad::new(q.p0, q.e2, q.e1) {
+            Some(f) => Geometry::Quad(f),
+            None => Geometry::Quad(q),
+        },
+        other => other,
+    }
+}
