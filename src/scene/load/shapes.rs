@@ -1,0 +1,276 @@
+//! The `[[shapes]]` tables: each shape's geometry, validated after its
+//! transform.
+
+use super::*;
+
+impl Ctx<'_> {
+    pub(super) fn geometry(
+        &self,
+        span: &Range<usize>,
+        sd: &ShapeDesc,
+        warnings: &mut Vec<String>,
+    ) -> Result<Geometry, SceneError> {
+        let used: &[&str] = match sd.kind.as_str() {
+            "sphere" => &["center", "radius"],
+            "plane" => &["point", "normal"],
+            "quad" => &["corners"],
+            "cuboid" => &["min", "max"],
+            "triangle" => &["vertices", "uvs"],
+            "mesh" => &["file", "scale", "rotate", "translate"],
+            other => {
+                return Err(self.field_error(
+                    span,
+                    "type",
+                    format!(
+                    "unknown shape type {} (known: sphere, plane, quad, cuboid, triangle, mesh)",
+                    echo(other)
+                ),
+                ))
+            }
+        };
+        let present = [
+            ("center", sd.center.is_some()),
+            ("radius", sd.radius.is_some()),
+            ("point", sd.point.is_some()),
+            ("normal", sd.normal.is_some()),
+            ("corners", sd.corners.is_some()),
+            ("min", sd.min.is_some()),
+            ("max", sd.max.is_some()),
+            ("vertices", sd.vertices.is_some()),
+            ("uvs", sd.uvs.is_some()),
+            ("file", sd.file.is_some()),
+            ("scale", sd.scale.is_some()),
+            ("rotate", sd.rotate.is_some()),
+            ("translate", sd.translate.is_some()),
+        ];
+        for (field, is_set) in present {
+            if is_set && !used.contains(&field) {
+                return Err(self.field_error(
+                    span,
+                    field,
+                    format!(
+                        "a {} has no `{field}` (it takes: {})",
+                        sd.kind,
+                        used.join(", ")
+                    ),
+                ));
+            }
+        }
+        let need =
+            |field: &str| self.error_at(span.start, format!("a {} needs `{field}`", sd.kind));
+        Ok(match sd.kind.as_str() {
+            "sphere" => {
+                let center =
+                    self.point3(span, "center", sd.center.ok_or_else(|| need("center"))?)?;
+                let radius = sd.radius.ok_or_else(|| need("radius"))?;
+                if !(radius > 0.0 && radius.is_finite()) {
+                    return Err(self.field_error(
+                        span,
+                        "radius",
+                        format!("must be positive and finite, got {radius}"),
+                    ));
+                }
+                let sphere = Sphere { center, radius };
+                let b = sphere.bounds();
+                for corner in [b.min, b.max] {
+                    if !within_bounds(corner) {
+                        return Err(self.field_error(
+                            span,
+                            "radius",
+                            format!(
+                                "the sphere's bounds reach past the coordinates luz can use: {}",
+                                outside(corner)
+                            ),
+                        ));
+                    }
+                }
+                Geometry::Sphere(sphere)
+            }
+            "plane" => {
+                let point = self.point3(span, "point", sd.point.ok_or_else(|| need("point"))?)?;
+                let normal =
+                    self.finite3(span, "normal", sd.normal.ok_or_else(|| need("normal"))?)?;
+                // Compared, not squared: a normal of 1e-40 is a direction.
+                if normal == Vec3::ZERO {
+                    return Err(self.field_error(span, "normal", "must not be zero"));
+                }
+                Geometry::Plane(Plane::new(point, normal))
+            }
+            "quad" => {
+                let corners = sd.corners.as_ref().ok_or_else(|| need("corners"))?;
+                if corners.len() != 4 {
+                    return Err(self.field_error(
+                        span,
+                        "corners",
+                        format!("needs 4 points, got {}", corners.len()),
+                    ));
+                }
+                let mut p = [Vec3::ZERO; 4];
+                for (i, c) in corners.iter().enumerate() {
+                    p[i] = self.point3(span, "corners", *c)?;
+                }
+                let (e1, e2) = (p[1] - p[0], p[3] - p[0]);
+                let off = (p[2] - (p[0] + e1 + e2)).length();
+                let size = e1.length().max(e2.length());
+                if off > 1e-4 * size.max(f32::MIN_POSITIVE) {
+                    return Err(self.field_error(
+                        span,
+                        "corners",
+                        format!("not a parallelogram: p2 is {off} away from p1 + p3 - p0"),
+                    ));
+                }
+                Geometry::Quad(
+                    Quad::new(p[0], e1, e2)
+                        .ok_or_else(|| self.field_error(span, "corners", "the quad has no area"))?,
+                )
+            }
+            "cuboid" => {
+                let min = self.point3(span, "min", sd.min.ok_or_else(|| need("min"))?)?;
+                let max = self.point3(span, "max", sd.max.ok_or_else(|| need("max"))?)?;
+                if !min.cmplt(max).all() {
+                    return Err(self.field_error(span, "max", "must exceed `min` on every axis"));
+                }
+                Geometry::Cuboid(Cuboid { min, max })
+            }
+            "triangle" => {
+                let vertices = sd.vertices.as_ref().ok_or_else(|| need("vertices"))?;
+                if vertices.len() != 3 {
+                    return Err(self.field_error(
+                        span,
+                        "vertices",
+                        format!("needs 3 points, got {}", vertices.len()),
+                    ));
+                }
+                let mut positions = Vec::with_capacity(3);
+                for v in vertices {
+                    positions.push(self.point3(span, "vertices", *v)?);
+                }
+                if crate::scene::mesh_io::is_degenerate([positions[0], positions[1], positions[2]])
+                {
+                    return Err(self.field_error(
+                        span,
+                        "vertices",
+                        "the triangle has no area (collinear vertices)",
+                    ));
+                }
+                let uvs = match &sd.uvs {
+                    Some(uvs) if uvs.len() == 3 => {
+                        let uvs: Vec<Vec2> = uvs.iter().map(|&u| Vec2::from(u)).collect();
+                        if let Some(uv) = uvs.iter().find(|uv| !uv.is_finite()) {
+                            return Err(self.field_error(
+                                span,
+                                "uvs",
+                                format!("must be finite, got {uv}"),
+                            ));
+                        }
+                        Some(uvs)
+                    }
+                    Some(uvs) => {
+                        return Err(self.field_error(
+                            span,
+                            "uvs",
+                            format!("needs 3 pairs, got {}", uvs.len()),
+                        ))
+                    }
+                    None => None,
+                };
+                Geometry::Mesh(Mesh {
+                    positions,
+                    indices: vec![[0, 1, 2]],
+                    uvs,
+                })
+            }
+            "mesh" => {
+                let file = sd.file.as_ref().ok_or_else(|| need("file"))?;
+                let path = self.resolve_file(span, file)?;
+                let (mut mesh, mut notes) = crate::scene::mesh_io::read_mesh(&path)
+                    .map_err(|e| self.field_error(span, "file", e.to_string()))?;
+                let scale = match sd.scale {
+                    None => Vec3::ONE,
+                    Some(Scale::Uniform(s)) => Vec3::splat(s),
+                    Some(Scale::PerAxis(s)) => Vec3::from(s),
+                };
+                if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
+                    return Err(self.field_error(span, "scale", "must be finite and non-zero"));
+                }
+                let r = self.finite3(span, "rotate", sd.rotate.unwrap_or([0.0; 3]))?;
+                let t = self.point3(span, "translate", sd.translate.unwrap_or([0.0; 3]))?;
+                let rotation = Quat::from_rotation_z(r.z.to_radians())
+                    * Quat::from_rotation_y(r.y.to_radians())
+                    * Quat::from_rotation_x(r.x.to_radians());
+                let transformed =
+                    sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some();
+                if transformed {
+                    mesh.transform(&Mat4::from_scale_rotation_translation(scale, rotation, t));
+                }
+                // Every vertex where it lands in the world, the file's own
+                // or transformed, within the coordinates luz can intersect.
+                {
+                    use rayon::prelude::*;
+                    if let Some((i, p)) = mesh
+                        .positions
+                        .par_iter()
+                        .enumerate()
+                        .find_first(|(_, p)| !within_bounds(**p))
+                    {
+                        let field = ["scale", "translate", "rotate"]
+                            .into_iter()
+                            .zip([
+                                sd.scale.is_some(),
+                                sd.translate.is_some(),
+                                sd.rotate.is_some(),
+                            ])
+                            .find_map(|(f, given)| given.then_some(f))
+                            .unwrap_or("file");
+                        let how = if transformed { " once transformed" } else { "" };
+                        return Err(self.field_error(
+                            span,
+                            field,
+                            format!("vertex {i} of the mesh{how}: {}", outside(*p)),
+                        ));
+                    }
+                }
+                if transformed {
+                    // A very uneven scale can flatten triangles to lines.
+                    let before = mesh.indices.len();
+                    let dropped =
+                        crate::scene::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
+                    if mesh.indices.is_empty() {
+                        return Err(self.field_error(
+                            span,
+                            "scale",
+                            "every triangle of the mesh is degenerate once transformed",
+                        ));
+                    }
+                    if dropped > 0 {
+                        notes.push(format!(
+                            "dropped {dropped} of {before} triangles, degenerate once transformed"
+                        ));
+                    }
+                }
+                if !notes.is_empty() {
+                    warnings.push(format!("{}: {}", path.display(), notes.join("; ")));
+                }
+                // Spare room after the last vertex lets Embree read luz's
+                // own array instead of copying it (its loads are 16 bytes).
+                mesh.positions.reserve_exact(1);
+                Geometry::Mesh(mesh)
+            }
+            _ => unreachable!("shape kinds are checked above"),
+        })
+    }
+}
+
+/// The largest magnitude of a shape's own texture coordinates: 1 for the
+/// bounded shapes and for meshes without uvs (barycentrics), the largest uv
+/// of a mesh that has them, and for a plane, whose coordinates are positions
+/// on it, the farthest a point can lie.
+pub(super) fn uv_extent(g: &Geometry) -> f32 {
+    match g {
+        Geometry::Plane(_) => 2.0 * MAX_COORDINATE,
+        Geometry::Mesh(Mesh { uvs: Some(uvs), .. }) => uvs
+            .iter()
+            .fold(1.0f32, |m, uv| m.max(uv.abs().max_element())),
+        _ => 1.0,
+    }
+}

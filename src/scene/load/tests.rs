@@ -1,0 +1,189 @@
+use super::*;
+
+const MINIMAL: &str = "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n";
+
+fn err(text: &str) -> SceneError {
+    load_str(text, Path::new("test.toml")).expect_err("must fail")
+}
+
+#[test]
+fn minimal_scene_gets_defaults() {
+    let s = load_str(MINIMAL, Path::new("m.toml")).unwrap();
+    assert_eq!((s.camera.width, s.camera.height), (512, 512));
+    assert_eq!(s.camera.fov_y, 40.0);
+    assert_eq!(s.render, RenderSettings::default());
+    assert!(s.shapes.is_empty() && s.lights.is_empty());
+}
+
+#[test]
+fn unknown_key_names_line_column_and_suggests() {
+    let e = err(&format!(
+        "{MINIMAL}[[shapes]]\ntype = \"sphere\"\ncenter = [0,0,0]\nradus = 1\n"
+    ));
+    assert_eq!(e.location.map(|l| l.0), Some(7), "{e}");
+    assert!(
+        e.message.contains("radus") && e.message.contains("did you mean `radius`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn empty_keys_are_unknown_fields() {
+    for text in ["\"\" = 1\n", "[camera]\n\"\" = \"\"\n"] {
+        let e = err(text);
+        assert!(e.message.contains("unknown field ``"), "{e}");
+    }
+}
+
+#[test]
+fn wrong_type_is_located() {
+    let e = err("[camera]\neye = [0, 1, 3]\ntarget = \"up\"\n");
+    assert_eq!(e.location.map(|l| l.0), Some(3), "{e}");
+}
+
+#[test]
+fn semantic_errors_name_the_field_line() {
+    let cases = [
+        (
+            "[[shapes]]\ntype = \"sphere\"\ncenter = [0,0,0]\nradius = -1\n",
+            7,
+            "radius",
+        ),
+        (
+            "[[shapes]]\ntype = \"sphere\"\ncenter = [0,nan,0]\nradius = 1\n",
+            6,
+            "center",
+        ),
+        ("[materials.m]\nkd = 0.6\nks = 0.5\n", 6, "ks"),
+        (
+            "[[shapes]]\ntype = \"cuboid\"\nmin = [0,0,0]\nmax = [1,1,1]\nmaterial = \"nope\"\n",
+            8,
+            "material",
+        ),
+        (
+            "[[lights]]\ntype = \"point\"\nposition = [0,0,0]\nintensity = inf\n",
+            7,
+            "intensity",
+        ),
+    ];
+    for (body, line, field) in cases {
+        let e = err(&format!("{MINIMAL}{body}"));
+        assert_eq!(e.location.map(|l| l.0), Some(line), "{e}");
+        assert!(e.message.contains(field), "{e}");
+    }
+}
+
+#[test]
+fn the_render_table_names_the_sampler() {
+    for kind in SamplerKind::ALL {
+        let text = format!("{MINIMAL}[render]\nsampler = \"{}\"\n", kind.name());
+        let s = load_str(&text, Path::new("s.toml")).unwrap();
+        assert_eq!(s.render.sampler, kind);
+    }
+    let e = err(&format!(
+        "{MINIMAL}[render]\nspp = 4\nsampler = \"halton\"\n"
+    ));
+    assert_eq!(e.location.map(|l| l.0), Some(6), "{e}");
+    assert!(
+        e.message
+            .contains("unknown sampler `halton` (known: independent, sobol)"),
+        "{e}"
+    );
+}
+
+#[test]
+fn missing_mesh_file_says_where_it_looked() {
+    let e = err(&format!(
+        "{MINIMAL}[[shapes]]\ntype = \"mesh\"\nfile = \"nothing-here.ply\"\n"
+    ));
+    assert!(
+        e.message.contains("nothing-here.ply") && e.message.contains("looked for"),
+        "{e}"
+    );
+    assert_eq!(e.location.map(|l| l.0), Some(6));
+}
+
+#[test]
+fn collinear_triangle_is_rejected() {
+    let e = err(&format!(
+        "{MINIMAL}[[shapes]]\ntype = \"triangle\"\nvertices = [[0,0,0],[1,1,1],[2,2,2]]\n"
+    ));
+    assert_eq!(e.location.map(|l| l.0), Some(6), "{e}");
+    assert!(
+        e.message.contains("`vertices`: the triangle has no area"),
+        "{e}"
+    );
+}
+
+#[test]
+fn quad_must_be_a_parallelogram() {
+    let e = err(&format!(
+        "{MINIMAL}[[shapes]]\ntype = \"quad\"\ncorners = [[0,0,0],[1,0,0],[1,1,0.5],[0,1,0]]\n"
+    ));
+    assert!(e.message.contains("parallelogram"), "{e}");
+}
+
+#[test]
+fn huge_and_tiny_directions_are_directions() {
+    let s = load_str(
+        "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\nup = [0, 1e-30, 0]\n\
+         [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [0, 3e38, 3e38]\n\
+         [[shapes]]\ntype = \"plane\"\npoint = [0, 0, 0]\nnormal = [1e-40, 0, 0]\n",
+        Path::new("d.toml"),
+    )
+    .unwrap();
+    let b = s.camera.basis();
+    assert!(b.up.is_finite() && b.right.is_finite() && b.up.y > 0.0);
+    for (shape, n) in s
+        .shapes
+        .iter()
+        .zip([Vec3::new(0.0, 1.0, 1.0).normalize(), Vec3::X])
+    {
+        let Geometry::Plane(p) = &shape.geometry else {
+            panic!("a plane")
+        };
+        assert!((p.normal - n).length() < 1e-6, "{}", p.normal);
+    }
+}
+
+#[test]
+fn tables_are_never_read_by_position() {
+    let e =
+        err("environment = [0.25, 99, \"junk\"]\n[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n");
+    assert!(
+        e.message.contains("`environment`") && e.message.contains("a table"),
+        "{e}"
+    );
+    assert_eq!(e.location.map(|l| l.0), Some(1), "{e}");
+    let e = err("camera = [[0, 1, 3], [0, 1, 0]]\n");
+    assert!(
+        e.message.contains("`camera`") && e.message.contains("a table"),
+        "{e}"
+    );
+    // Inline tables are tables.
+    load_str(
+        "camera = { eye = [0, 1, 3], target = [0, 1, 0] }\nenvironment = { radiance = 0.5 }\n",
+        Path::new("t.toml"),
+    )
+    .unwrap();
+}
+
+#[test]
+fn long_values_are_echoed_short() {
+    let long = "y".repeat(1 << 20);
+    for text in [
+        format!("{MINIMAL}{long} = 1\n"),
+        format!("{MINIMAL}fov = \"{long}\"\n"),
+        format!("{MINIMAL}[[shapes]]\ntype = \"{long}\"\n"),
+    ] {
+        let e = err(&text).to_string();
+        assert!(e.len() < 1024, "{} bytes: {}", e.len(), &e[..1024]);
+    }
+}
+
+#[test]
+fn edit_distance_counts_edits() {
+    assert_eq!(edit_distance("radus", "radius"), 1);
+    assert_eq!(edit_distance("", "abc"), 3);
+    assert_eq!(edit_distance("kitten", "sitting"), 3);
+}
