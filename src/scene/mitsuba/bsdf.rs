@@ -185,17 +185,21 @@ fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     bsdf(b, first)
 }
 
+/// The properties of a rough BSDF's microfacet distribution, which luz
+/// reads and substitutes (with a warning) rather than reporting as unused.
+const ROUGHNESS: [&str; 5] = [
+    "alpha",
+    "alpha_u",
+    "alpha_v",
+    "distribution",
+    "sample_visible",
+];
+
 fn conductor(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
     let mut what = Vec::new();
     if e.kind() == "roughconductor" {
-        for n in [
-            "alpha",
-            "alpha_u",
-            "alpha_v",
-            "distribution",
-            "sample_visible",
-        ] {
+        for n in ROUGHNESS {
             props.accept(n);
         }
         what.push("the roughness is substituted by a perfect mirror");
@@ -292,13 +296,7 @@ fn relative_ior(props: &Props, int_default: f64) -> Result<f64, SceneError> {
 fn dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
     if e.kind() == "roughdielectric" {
-        for n in [
-            "alpha",
-            "alpha_u",
-            "alpha_v",
-            "distribution",
-            "sample_visible",
-        ] {
+        for n in ROUGHNESS {
             props.accept(n);
         }
         b.problems.warn(
