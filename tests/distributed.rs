@@ -182,7 +182,7 @@ fn merge_refuses_foreign_overlapping_missing_and_corrupt_parts() {
     std::fs::write(p("cut.exr"), &bytes[..bytes.len() / 2]).unwrap();
     assert_input_error(
         &merge(&["a.exr", "cut.exr"], &[]),
-        "cut.exr: dataWindow: 24x24 pixels of 60 bytes need at least",
+        "cut.exr: dataWindow: 24x24 pixels of 72 bytes need at least",
         &out,
     );
     std::fs::write(p("cut-header.exr"), &bytes[..100]).unwrap();

@@ -12,6 +12,11 @@ pub enum MergeError {
     #[error("no parts to merge")]
     Empty,
     #[error(
+        "{}: luz:sampling: `{sampling}`: an adaptive render does not split into parts (its pixels' samples all start at 0); render it in one job, resuming from checkpoints as needed",
+        path.display()
+    )]
+    Adaptive { path: PathBuf, sampling: String },
+    #[error(
         "{}: {field} {theirs} differs from {}'s {ours}: parts of different renders cannot be merged",
         path.display(), first.display()
     )]
@@ -47,6 +52,12 @@ pub struct Merged {
 /// order of their samples.
 pub fn merge(mut parts: Vec<(PathBuf, Part)>, allow_gaps: bool) -> Result<Merged, MergeError> {
     let (first_path, first) = parts.first().ok_or(MergeError::Empty)?;
+    if let Some((path, part)) = parts.iter().find(|(_, p)| p.meta.sampling.is_adaptive()) {
+        return Err(MergeError::Adaptive {
+            path: path.clone(),
+            sampling: part.meta.sampling.to_string(),
+        });
+    }
     for (path, part) in &parts[1..] {
         let size = |f: &Film| (f.width, f.height);
         if let Some(m) = part::first_mismatch(
@@ -135,6 +146,7 @@ mod tests {
             seed: 7,
             spp: 8,
             ranges: ranges.iter().map(|&(a, b)| a..b).collect(),
+            sampling: crate::render::Sampling::Uniform,
             backend: BackendKind::Rust,
         };
         film.samples = meta.sample_count();

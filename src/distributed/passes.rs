@@ -2,7 +2,9 @@
 //! between passes the film can be saved (a checkpoint) or the render stopped
 //! cleanly. Passes continue each pixel's running sums (see
 //! [`render_into`](crate::render::render_into)), so the image does not depend on how
-//! the range is cut into passes.
+//! the range is cut into passes. A time limit ends the render after whole
+//! passes; how many passes that is depends on the machine, so such a render
+//! is the one kind that is not deterministic.
 
 use crate::accel::Accel;
 use crate::render::{render_into_with, Film, Progress, RenderOptions, RenderStats};
@@ -11,16 +13,34 @@ use std::time::{Duration, Instant};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Outcome {
-    /// Every sample of the range is in the film.
+    /// Every sample of the range is in the film (for an adaptive render:
+    /// every pixel has stopped).
     Complete,
     /// `stop` said so; the film holds whole passes.
     Stopped,
+    /// The time limit came first; the film holds whole passes.
+    OutOfTime,
+}
+
+/// When passes end and how long they may take.
+#[derive(Clone, Copy, Debug)]
+pub struct PassTiming {
+    /// About how long a pass takes, so that a signal or a checkpoint waits
+    /// no longer.
+    pub pass_time: Duration,
+    /// No pass ends after this; the render ends, complete or not.
+    pub deadline: Option<Instant>,
 }
 
 /// Renders the samples of `options.samples` that `film` does not hold yet
 /// (it holds the first `film.samples` of them), in passes of about
-/// `pass_time` each. After every pass `after_pass` sees the film; the render
-/// ends early, after the pass in flight, once `stop` says so.
+/// `timing.pass_time` each. After every pass `after_pass` sees the film; the
+/// render ends early, after the pass in flight, once `stop` says so, and
+/// before a pass that the deadline would cut.
+///
+/// A film with a plan (an adaptive render) renders until
+/// `options.sampling` stops every pixel; its decisions are made here, between
+/// passes, whenever every pixel has reached its goal.
 #[allow(clippy::too_many_arguments)]
 pub fn render_passes<E>(
     scene: &Scene,
@@ -28,7 +48,7 @@ pub fn render_passes<E>(
     options: &RenderOptions,
     film: &mut Film,
     progress: &dyn Progress,
-    pass_time: Duration,
+    timing: PassTiming,
     stop: impl Fn() -> bool,
     mut after_pass: impl FnMut(&Film) -> Result<(), E>,
 ) -> Result<(Outcome, RenderStats), E> {
@@ -39,28 +59,63 @@ pub fn render_passes<E>(
         rays: Default::default(),
         samples: 0,
     };
+    let finish = |mut stats: RenderStats, outcome| {
+        stats.wall = start.elapsed();
+        Ok((outcome, stats))
+    };
     // One sample first, to learn the rate; then passes sized to the rate.
     let mut pass = 1u64;
+    let mut per_sample = None;
     loop {
-        let next = range.start as u64 + film.samples;
-        if next >= range.end as u64 {
-            stats.wall = start.elapsed();
-            return Ok((Outcome::Complete, stats));
-        }
+        let pixels_left = match film.plan.as_ref() {
+            None => {
+                let next = range.start as u64 + film.samples;
+                (next < range.end as u64).then_some(film.sum.len() as u64)
+            }
+            Some(plan) => {
+                if plan.at_goals() && !options.sampling.decide(film) {
+                    None
+                } else {
+                    let plan = film.plan.as_ref().expect("still adaptive");
+                    let active = plan.count.iter().zip(&plan.goal).filter(|(c, g)| c < g);
+                    Some(active.count() as u64)
+                }
+            }
+        };
+        let Some(pixels_left) = pixels_left else {
+            return finish(stats, Outcome::Complete);
+        };
         if stop() {
-            stats.wall = start.elapsed();
-            return Ok((Outcome::Stopped, stats));
+            return finish(stats, Outcome::Stopped);
         }
-        let end = (next + pass).min(range.end as u64) as u32;
+        if let (Some(deadline), Some(per_sample)) = (timing.deadline, per_sample) {
+            // Whole samples of the pixels left, as many as the time left
+            // holds, at the rate measured so far.
+            let left = deadline
+                .saturating_duration_since(Instant::now())
+                .as_secs_f64();
+            let fits = (left / (per_sample * pixels_left as f64)) as u64;
+            if fits == 0 {
+                return finish(stats, Outcome::OutOfTime);
+            }
+            pass = pass.min(fits);
+        }
+        let next = range.start as u64 + film.samples;
+        let samples = match film.plan {
+            None => next as u32..(next + pass).min(range.end as u64) as u32,
+            Some(_) => 0..pass.min(u32::MAX as u64) as u32,
+        };
         let pass_options = RenderOptions {
-            samples: next as u32..end,
+            samples,
             ..options.clone()
         };
         let pass_stats = render_into_with(scene, accel, &pass_options, film, progress);
         stats.rays.add(&pass_stats.rays);
         stats.samples += pass_stats.samples;
-        let per_sample = pass_stats.wall.as_secs_f64() / (end as u64 - next) as f64;
-        let fit = (pass_time.as_secs_f64() / per_sample.max(1e-9)) as u64;
+        // Time per sample of one pixel: the rate the next pass is sized by.
+        let rate = pass_stats.wall.as_secs_f64() / pass_stats.samples.max(1) as f64;
+        per_sample = Some(rate);
+        let fit = (timing.pass_time.as_secs_f64() / (rate * pixels_left as f64).max(1e-12)) as u64;
         // At most four times the last pass: a rate measured on a pass of a
         // sample or two is rough, and an overlong pass delays the answer to
         // a signal.

@@ -5,6 +5,7 @@
 pub mod io;
 pub mod metrics;
 pub mod tonemap;
+pub mod zscore;
 
 pub use io::{read, read_texture, write, ImageError, WriteOptions};
 pub use metrics::{compare, Comparison};

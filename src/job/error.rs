@@ -10,6 +10,7 @@ use crate::distributed::part::{Mismatch, PartError};
 use crate::distributed::task::TaskError;
 use crate::image::ImageError;
 use crate::render::film::FilmError;
+use crate::render::Sampling;
 use crate::scene::SceneError;
 use std::ops::Range;
 use std::path::PathBuf;
@@ -45,6 +46,13 @@ pub enum JobError {
     PartialNeedsExr { path: PathBuf, samples: Range<u32> },
     #[error("--samples {}..{}: the scene renders {spp} samples per pixel (indices 0..{spp}); raise --spp or lower the range", samples.start, samples.end)]
     SamplesBeyondSpp { samples: Range<u32>, spp: u32 },
+    #[error("{sampling} renders every pixel from sample 0, so it cannot render --samples {}..{} or a task's share: render it in one job (checkpoints resume it exactly)", samples.start, samples.end)]
+    AdaptiveSplit {
+        sampling: Sampling,
+        samples: Range<u32>,
+    },
+    #[error("--min-spp {min} is above --max-spp {max}")]
+    MinAboveMax { min: u32, max: u32 },
     #[error("--task-count needs --task-index, SLURM_ARRAY_TASK_ID or JOB_COMPLETION_INDEX")]
     TaskCountWithoutIndex,
     #[error(transparent)]

@@ -15,7 +15,7 @@ pub mod render;
 pub mod signals;
 
 pub use error::{JobError, WriteError};
-pub use render::{JobReport, Observer, Overrides, RenderJob, SampleChoice, Stage};
+pub use render::{JobReport, Observer, Overrides, RenderJob, SampleChoice, SamplingRequest, Stage};
 
 use crate::distributed::merge::{merge, Merged};
 use crate::distributed::part;
@@ -59,4 +59,23 @@ pub fn tonemap_file(input: &Path, output: &Path, write: &WriteOptions) -> Result
         role: Role::Output,
         error: e.into(),
     })
+}
+
+/// The image at `path` and its per-pixel standard errors: a luz render's
+/// (read as a part, every check made), or for any other image zeros, as
+/// for an exact reference.
+pub fn read_with_error(
+    path: &Path,
+) -> Result<(crate::image::Image, crate::image::Image), JobError> {
+    if part::is_part(path) {
+        let film = part::read(path).map_err(JobError::Part)?.film;
+        return Ok((film.image(), film.standard_error()));
+    }
+    let image = imageio::read(path).map_err(JobError::Input)?;
+    let zeros = crate::image::Image::new(
+        image.width,
+        image.height,
+        vec![crate::math::Vec3::splat(0.0); image.pixels.len()],
+    );
+    Ok((image, zeros))
 }

@@ -7,10 +7,11 @@ use super::signals::Stop;
 use super::{JobError, WriteError};
 use crate::accel::{Accel, Backend as _, BackendKind, BuildOptions};
 use crate::distributed::part::{self, PartMeta};
-use crate::distributed::passes::{render_passes, Outcome};
+use crate::distributed::passes::{render_passes, Outcome, PassTiming};
 use crate::distributed::task::{self, Task};
 use crate::image::io::{self as imageio, WriteOptions};
-use crate::render::{Film, Progress, RenderOptions, RenderStats};
+use crate::render::film::ErrorEstimate;
+use crate::render::{Film, Progress, RenderOptions, RenderStats, Sampling};
 use crate::sampling::SamplerKind;
 use crate::scene::{LoadOptions, Scene, SceneError};
 use std::ops::Range;
@@ -61,6 +62,54 @@ pub enum SampleChoice {
     BatchSystem { count: Option<u32> },
 }
 
+/// How the user asked for samples to be spread over the pixels; the
+/// scene's spp settles the defaults.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum SamplingRequest {
+    #[default]
+    Uniform,
+    /// `--noise-threshold E` with `--min-spp` (default 16) and `--max-spp`
+    /// (default: the scene's spp).
+    NoiseThreshold {
+        threshold: f64,
+        min_spp: Option<u32>,
+        max_spp: Option<u32>,
+    },
+    /// `--adaptive`: the scene's spp, times the pixels, as the budget.
+    Budget,
+}
+
+/// Samples a noise threshold gives every pixel before its first decision,
+/// unless `--min-spp` says otherwise: enough for a first variance estimate
+/// that is not mostly luck.
+pub const DEFAULT_MIN_SPP: u32 = 16;
+
+impl SamplingRequest {
+    /// The sampling of a render of `spp` samples per pixel.
+    pub fn resolve(self, spp: u32) -> Result<Sampling, JobError> {
+        Ok(match self {
+            Self::Uniform => Sampling::Uniform,
+            Self::Budget => Sampling::Budget { spp },
+            Self::NoiseThreshold {
+                threshold,
+                min_spp,
+                max_spp,
+            } => {
+                let max = max_spp.unwrap_or(spp);
+                let min = min_spp.unwrap_or(DEFAULT_MIN_SPP.min(max));
+                if min > max {
+                    return Err(JobError::MinAboveMax { min, max });
+                }
+                Sampling::NoiseThreshold {
+                    threshold,
+                    min_spp: min,
+                    max_spp: max,
+                }
+            }
+        })
+    }
+}
+
 /// A stage before the first sample, reported when done.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Stage {
@@ -99,6 +148,10 @@ pub struct RenderJob {
     pub checkpoint_every: Option<Duration>,
     pub resume: Option<PathBuf>,
     pub write: WriteOptions,
+    pub sampling: SamplingRequest,
+    /// Render whole passes until this much time is spent (`--time-limit`),
+    /// then write what is done.
+    pub time_limit: Option<Duration>,
 }
 
 /// What a finished job did.
@@ -119,6 +172,13 @@ pub struct JobReport {
     pub checkpoint_time: Duration,
     pub checkpoint_failures: u32,
     pub non_finite: u64,
+    pub sampling: Sampling,
+    /// The samples of all pixels together.
+    pub sample_total: u64,
+    /// The image's error, estimated from its own samples.
+    pub estimate: ErrorEstimate,
+    /// The time limit ended the render before its samples were done.
+    pub out_of_time: bool,
 }
 
 impl RenderJob {
@@ -182,8 +242,12 @@ impl RenderJob {
             .collect();
         refuse_overlaps(&outputs, &scene_files)?;
 
-        let spp = scene.render.spp;
+        let sampling = self.sampling.resolve(scene.render.spp)?;
+        let spp = sampling.max_spp(scene.render.spp);
         let samples = self.sample_range(spp, observer)?;
+        if sampling.is_adaptive() && samples != (0..spp) {
+            return Err(JobError::AdaptiveSplit { sampling, samples });
+        }
         if samples != (0..spp) && !is_exr(&output) {
             return Err(JobError::PartialNeedsExr {
                 path: output,
@@ -203,27 +267,38 @@ impl RenderJob {
             seed: scene.render.seed,
             spp,
             ranges: vec![samples.clone()],
+            sampling,
             backend: accel.kind(),
         };
         let hash_time = hash_start.elapsed();
         let (width, height) = (scene.camera.width, scene.camera.height);
         let mut film = match &self.resume {
             Some(path) => resumed_film(path, &meta, (width, height))?,
-            None => Film::try_new(width, height).map_err(|error| JobError::Film {
-                scene: self.scene.clone(),
-                error,
-            })?,
+            None => {
+                let mut film = Film::try_new(width, height).map_err(|error| JobError::Film {
+                    scene: self.scene.clone(),
+                    error,
+                })?;
+                film.plan = sampling.first_plan(film.sum.len());
+                film
+            }
         };
         let resumed_at = film.samples;
 
         let options = RenderOptions {
             samples: samples.clone(),
+            sampling,
             ..RenderOptions::from_scene(&scene)
         };
-        observer.rendering(
-            height as u64 * (samples.len() as u64 - film.samples),
-            width as u64,
-        );
+        // Rows of one sample each: for an adaptive render, as many as it
+        // may take at most.
+        let most = match sampling {
+            Sampling::Budget { spp } => spp as u64,
+            _ => samples.len() as u64,
+        };
+        let pixels = width as u64 * height as u64;
+        let remaining = (most * pixels).saturating_sub(film.total_samples());
+        observer.rendering(remaining / width as u64, width as u64);
         // Passes short enough that a signal is answered within a second or
         // so, and that checkpoints come about when asked.
         let pass_time = self
@@ -234,13 +309,17 @@ impl RenderJob {
         let mut last_checkpoint = Instant::now();
         let (mut checkpoints, mut checkpoint_time, mut checkpoint_failures) =
             (0, Duration::ZERO, 0);
+        let timing = PassTiming {
+            pass_time,
+            deadline: self.time_limit.map(|limit| Instant::now() + limit),
+        };
         let (outcome, stats) = render_passes(
             &scene,
             &accel,
             &options,
             &mut film,
             observer,
-            pass_time,
+            timing,
             || stop.requested().is_some(),
             |film| {
                 match self.checkpoint_every {
@@ -291,7 +370,7 @@ impl RenderJob {
             output,
             resolution: (width, height),
             spp,
-            samples,
+            samples: samples.start..samples.start + film.samples as u32,
             resumed_at,
             backend: accel.name(),
             load_time,
@@ -302,6 +381,10 @@ impl RenderJob {
             checkpoint_time,
             checkpoint_failures,
             non_finite: film.non_finite,
+            sampling,
+            sample_total: film.total_samples(),
+            estimate: film.error_estimate(),
+            out_of_time: outcome == Outcome::OutOfTime,
         })
     }
 

@@ -1,6 +1,8 @@
 //! The film: per-pixel sums of sample radiance in f64, plus sums of squares
 //! (for per-pixel variance estimates) and the count of non-finite samples,
 //! which are dropped (counted as zero) so an image never holds NaN or Inf.
+//! An adaptive render's film also holds each pixel's own sample count and
+//! where it is headed ([`PixelPlan`]).
 
 use crate::image::Image;
 use crate::math::{Rgb, Vec3};
@@ -31,11 +33,65 @@ pub enum FilmError {
 pub struct Film {
     pub width: u32,
     pub height: u32,
-    /// Samples per pixel accumulated so far (the same for every pixel).
+    /// Samples per pixel accumulated so far: every pixel's count, or with a
+    /// [`PixelPlan`] the largest.
     pub samples: u64,
     pub sum: Vec<[f64; 3]>,
     pub sum_sq: Vec<[f64; 3]>,
     pub non_finite: u64,
+    /// Per-pixel counts and goals of an adaptive render; `None` when every
+    /// pixel holds `samples` samples.
+    pub plan: Option<PixelPlan>,
+}
+
+/// Where each pixel of an adaptive render stands. Pixel `i` holds samples
+/// `0..count[i]` and renders on to `goal[i]` before its next decision; a
+/// pixel whose goal is its count waits for that decision, or has stopped.
+/// Everything the next decision needs is here, so a checkpoint of an
+/// adaptive render resumes bit for bit.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct PixelPlan {
+    pub count: Vec<u32>,
+    pub goal: Vec<u32>,
+    /// Whether the pixel met the noise threshold at its last decision (the
+    /// rule asks for two in a row; see [`crate::render::adaptive`]).
+    pub met: Vec<bool>,
+}
+
+impl PixelPlan {
+    /// Every one of `pixels` pixels holding `count` samples, headed for `goal`.
+    pub fn uniform(pixels: usize, count: u32, goal: u32) -> Self {
+        Self {
+            count: vec![count; pixels],
+            goal: vec![goal; pixels],
+            met: vec![false; pixels],
+        }
+    }
+
+    /// Samples held by all pixels together.
+    pub fn total(&self) -> u64 {
+        self.count.iter().map(|&c| c as u64).sum()
+    }
+
+    /// Whether every pixel has reached its goal: the next decision is due.
+    pub fn at_goals(&self) -> bool {
+        self.count == self.goal
+    }
+}
+
+/// An image's error, estimated from its own per-pixel sums.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorEstimate {
+    /// The mean over pixels and channels of `stderr² / (mean² + 0.01)`:
+    /// the relative MSE the image is expected to have.
+    pub rel_mse: f64,
+}
+
+impl ErrorEstimate {
+    /// The relative error: the root of the relative MSE.
+    pub fn rel_error(&self) -> f64 {
+        self.rel_mse.sqrt()
+    }
 }
 
 /// Accumulator for one pixel's samples.
@@ -90,20 +146,36 @@ impl Film {
             sum: zeroed().ok_or_else(too_large)?,
             sum_sq: zeroed().ok_or_else(too_large)?,
             non_finite: 0,
+            plan: None,
         })
+    }
+
+    /// The samples pixel `i` holds.
+    #[inline]
+    pub fn count(&self, i: usize) -> u64 {
+        match &self.plan {
+            Some(plan) => plan.count[i] as u64,
+            None => self.samples,
+        }
+    }
+
+    /// Samples held by all pixels together.
+    pub fn total_samples(&self) -> u64 {
+        match &self.plan {
+            Some(plan) => plan.total(),
+            None => self.samples * self.sum.len() as u64,
+        }
     }
 
     /// Mean radiance per pixel.
     pub fn image(&self) -> Image {
-        let inv = if self.samples == 0 {
-            0.0
-        } else {
-            1.0 / self.samples as f64
-        };
         let pixels = self
             .sum
             .iter()
-            .map(|s| {
+            .enumerate()
+            .map(|(i, s)| {
+                let n = self.count(i);
+                let inv = if n == 0 { 0.0 } else { 1.0 / n as f64 };
                 Vec3::new(
                     (s[0] * inv) as f32,
                     (s[1] * inv) as f32,
@@ -116,29 +188,72 @@ impl Film {
 
     /// Estimated variance of each pixel's mean (sample variance / n).
     pub fn variance_of_mean(&self) -> Image {
-        let n = self.samples as f64;
-        let pixels = self
-            .sum
-            .iter()
-            .zip(&self.sum_sq)
-            .map(|(s, q)| {
-                let mut v = [0.0f32; 3];
-                if n > 1.0 {
-                    for c in 0..3 {
-                        let mean = s[c] / n;
-                        let var = ((q[c] / n - mean * mean) * n / (n - 1.0)).max(0.0);
-                        v[c] = (var / n) as f32;
-                    }
-                }
-                Vec3::from(v)
-            })
+        let pixels = (0..self.sum.len())
+            .map(|i| Vec3::from(self.pixel_variance_of_mean(i).map(|v| v as f32)))
             .collect();
         Image::new(self.width, self.height, pixels)
     }
 
+    /// Standard error of each pixel's mean: what `stderr.{R,G,B}` hold.
+    pub fn standard_error(&self) -> Image {
+        let mut image = self.variance_of_mean();
+        for p in &mut image.pixels {
+            *p = Vec3::new(p.x.sqrt(), p.y.sqrt(), p.z.sqrt());
+        }
+        image
+    }
+
+    /// The image's relative MSE as its own samples estimate it. With
+    /// independent samples this is an honest estimate; with low-discrepancy
+    /// samples the sample variance overstates the error of the mean.
+    pub fn error_estimate(&self) -> ErrorEstimate {
+        let total: f64 = (0..self.sum.len())
+            .map(|i| {
+                let (mean, var) = (self.pixel_mean(i), self.pixel_variance_of_mean(i));
+                (0..3)
+                    .map(|c| var[c] / (mean[c] * mean[c] + 0.01))
+                    .sum::<f64>()
+            })
+            .sum();
+        ErrorEstimate {
+            rel_mse: total / (3 * self.sum.len().max(1)) as f64,
+        }
+    }
+
+    /// Pixel `i`'s mean per channel.
+    #[inline]
+    pub fn pixel_mean(&self, i: usize) -> [f64; 3] {
+        let n = self.count(i);
+        let inv = if n == 0 { 0.0 } else { 1.0 / n as f64 };
+        self.sum[i].map(|s| s * inv)
+    }
+
+    /// The estimated variance of pixel `i`'s mean per channel: the unbiased
+    /// sample variance over n; 0 below two samples.
+    #[inline]
+    pub fn pixel_variance_of_mean(&self, i: usize) -> [f64; 3] {
+        let n = self.count(i) as f64;
+        let (s, q) = (self.sum[i], self.sum_sq[i]);
+        let mut v = [0.0; 3];
+        if n > 1.0 {
+            for c in 0..3 {
+                let mean = s[c] / n;
+                let var = ((q[c] / n - mean * mean) * n / (n - 1.0)).max(0.0);
+                v[c] = var / n;
+            }
+        }
+        v
+    }
+
     /// Adds another film's samples (disjoint sample ranges of one scene).
+    /// Films of adaptive renders do not merge: their pixels hold samples
+    /// `0..count`, so two of them overlap.
     pub fn merge(&mut self, other: &Film) {
         assert_eq!((self.width, self.height), (other.width, other.height));
+        assert!(
+            self.plan.is_none() && other.plan.is_none(),
+            "adaptive films do not merge"
+        );
         for (a, b) in self.sum.iter_mut().zip(&other.sum) {
             for c in 0..3 {
                 a[c] += b[c];

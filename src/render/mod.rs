@@ -3,10 +3,12 @@
 //! each pixel summing its samples in order. The image is therefore
 //! the same for any thread count, and disjoint sample ranges merge exactly.
 
+pub mod adaptive;
 pub mod film;
 pub mod integrator;
 
-pub use film::{Film, PixelSum};
+pub use adaptive::Sampling;
+pub use film::{Film, PixelPlan, PixelSum};
 pub use integrator::{Integrator, IntegratorSettings, RayCounts};
 
 use crate::accel::{Accel, AccelTree, Backend};
@@ -26,6 +28,9 @@ pub struct RenderOptions {
     pub seed: u64,
     pub sampler: SamplerKind,
     pub integrator: IntegratorSettings,
+    /// How the samples are spread over pixels; an adaptive render's film
+    /// carries its plan.
+    pub sampling: Sampling,
 }
 
 impl RenderOptions {
@@ -39,6 +44,7 @@ impl RenderOptions {
                 max_depth: scene.render.max_depth,
                 russian_roulette: scene.render.russian_roulette,
             },
+            sampling: Sampling::Uniform,
         }
     }
 }
@@ -86,6 +92,10 @@ pub fn render<B: Backend + ?Sized>(
 /// running sums. Rendering a range in consecutive pieces into one film
 /// therefore gives bit for bit the film of rendering it in one go: that is
 /// what makes checkpoints and resumed renders exact.
+///
+/// A film with a [`PixelPlan`] (an adaptive render) instead moves each pixel
+/// from its count towards its goal, by at most `options.samples.len()`
+/// samples.
 pub fn render_into<B: Backend + ?Sized>(
     scene: &Scene,
     backend: &B,
@@ -95,54 +105,129 @@ pub fn render_into<B: Backend + ?Sized>(
 ) -> RenderStats {
     let start = Instant::now();
     let cam = &scene.camera;
-    let width = cam.width;
     assert_eq!(
         (film.width, film.height),
         (cam.width, cam.height),
         "the film must have the camera's resolution"
     );
-    let basis = cam.basis();
-    let integrator = Integrator::new(scene, backend, options.integrator);
-    let counts = Mutex::new(RayCounts::default());
-    let non_finite = AtomicU64::new(0);
-    let samples = options.samples.clone();
-    let pass = samples.len() as u32;
-
-    film.sum
-        .par_chunks_mut(width as usize)
-        .zip(film.sum_sq.par_chunks_mut(width as usize))
-        .enumerate()
-        .for_each(|(y, (row_sum, row_sq))| {
-            let y = y as u32;
-            let mut local = RayCounts::default();
-            let mut bad = 0;
-            for x in 0..width {
-                let mut px = PixelSum {
-                    sum: row_sum[x as usize],
-                    sum_sq: row_sq[x as usize],
-                    non_finite: 0,
-                };
-                for s in samples.clone() {
-                    let mut sampler = Sampler::for_sample(options.sampler, options.seed, x, y, s);
-                    let jitter = sampler.camera();
-                    let ray = cam.ray(&basis, Vec2::new(x as f32, y as f32) + jitter);
-                    px.add(integrator.li(ray, &mut sampler, &mut local));
-                }
-                row_sum[x as usize] = px.sum;
-                row_sq[x as usize] = px.sum_sq;
-                bad += px.non_finite;
-            }
-            counts.lock().expect("no panics while held").add(&local);
-            non_finite.fetch_add(bad, Ordering::Relaxed);
-            progress.row_done(pass);
-        });
-
-    film.samples += pass as u64;
-    film.non_finite += non_finite.into_inner();
+    let pixels = PixelRenderer {
+        scene,
+        basis: cam.basis(),
+        integrator: Integrator::new(scene, backend, options.integrator),
+        options,
+        width: cam.width,
+    };
+    let totals = Totals::default();
+    let width = cam.width as usize;
+    let rows = film
+        .sum
+        .par_chunks_mut(width)
+        .zip(film.sum_sq.par_chunks_mut(width));
+    let samples = match &mut film.plan {
+        None => {
+            let pass = options.samples.len() as u32;
+            rows.enumerate().for_each(|(y, (row_sum, row_sq))| {
+                let done = pixels.row(
+                    y as u32,
+                    row_sum,
+                    row_sq,
+                    |_| options.samples.clone(),
+                    &totals,
+                );
+                progress.row_done((done / width as u64) as u32);
+            });
+            film.samples += pass as u64;
+            pass as u64 * film.sum.len() as u64
+        }
+        Some(plan) => {
+            let most = options.samples.len() as u32;
+            let reported = AtomicU64::new(0);
+            rows.zip(plan.count.par_chunks_mut(width))
+                .zip(plan.goal.par_chunks(width))
+                .enumerate()
+                .for_each(|(y, (((row_sum, row_sq), count), goal))| {
+                    let range = |x: u32| {
+                        let c = count[x as usize];
+                        c..goal[x as usize].min(c.saturating_add(most))
+                    };
+                    let done = pixels.row(y as u32, row_sum, row_sq, range, &totals);
+                    for (c, g) in count.iter_mut().zip(goal) {
+                        *c = (*g).min(c.saturating_add(most));
+                    }
+                    // Rows of whole samples, however unevenly the pixels
+                    // got them.
+                    let before = reported.fetch_add(done, Ordering::Relaxed);
+                    let rows_done = (before + done) / width as u64 - before / width as u64;
+                    progress.row_done(rows_done as u32);
+                });
+            film.samples = plan.count.iter().copied().max().unwrap_or(0) as u64;
+            reported.into_inner()
+        }
+    };
+    film.non_finite += totals.non_finite.into_inner();
     RenderStats {
         wall: start.elapsed(),
-        rays: counts.into_inner().expect("no panics while held"),
-        samples: pass as u64 * width as u64 * cam.height as u64,
+        rays: totals.rays.into_inner().expect("no panics while held"),
+        samples,
+    }
+}
+
+/// What the rows of a pass add up.
+#[derive(Default)]
+struct Totals {
+    rays: Mutex<RayCounts>,
+    non_finite: AtomicU64,
+}
+
+/// Renders the samples of a pass, pixel by pixel.
+struct PixelRenderer<'a, B: Backend + ?Sized> {
+    scene: &'a Scene,
+    basis: crate::scene::camera::CameraBasis,
+    integrator: Integrator<'a, B>,
+    options: &'a RenderOptions,
+    width: u32,
+}
+
+impl<B: Backend + ?Sized> PixelRenderer<'_, B> {
+    /// Adds samples `range(x)` of every pixel `x` of row `y` to its sums;
+    /// returns how many samples that was.
+    fn row(
+        &self,
+        y: u32,
+        row_sum: &mut [[f64; 3]],
+        row_sq: &mut [[f64; 3]],
+        range: impl Fn(u32) -> Range<u32>,
+        totals: &Totals,
+    ) -> u64 {
+        let cam = &self.scene.camera;
+        let (seed, sampler_kind) = (self.options.seed, self.options.sampler);
+        let mut local = RayCounts::default();
+        let (mut bad, mut done) = (0, 0);
+        for x in 0..self.width {
+            let mut px = PixelSum {
+                sum: row_sum[x as usize],
+                sum_sq: row_sq[x as usize],
+                non_finite: 0,
+            };
+            let samples = range(x);
+            done += samples.len() as u64;
+            for s in samples {
+                let mut sampler = Sampler::for_sample(sampler_kind, seed, x, y, s);
+                let jitter = sampler.camera();
+                let ray = cam.ray(&self.basis, Vec2::new(x as f32, y as f32) + jitter);
+                px.add(self.integrator.li(ray, &mut sampler, &mut local));
+            }
+            row_sum[x as usize] = px.sum;
+            row_sq[x as usize] = px.sum_sq;
+            bad += px.non_finite;
+        }
+        totals
+            .rays
+            .lock()
+            .expect("no panics while held")
+            .add(&local);
+        totals.non_finite.fetch_add(bad, Ordering::Relaxed);
+        done
     }
 }
 
@@ -230,6 +315,53 @@ material = "wall"
             pool.install(|| render_into_with(scene, &accel, &options, &mut film, &()));
         }
         film
+    }
+
+    /// The film of an adaptive render of `scene`, in passes of at most
+    /// `pass` samples per pixel, on `threads` threads.
+    fn adaptive_film(scene: &Arc<Scene>, sampling: Sampling, pass: u32, threads: usize) -> Film {
+        let accel = Accel::build(scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        let mut film = Film::new(scene.camera.width, scene.camera.height);
+        film.plan = sampling.first_plan(film.sum.len());
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        let options = RenderOptions {
+            samples: 0..pass,
+            sampling,
+            ..RenderOptions::from_scene(scene)
+        };
+        loop {
+            let plan = film.plan.as_ref().unwrap();
+            if plan.at_goals() && !sampling.decide(&mut film) {
+                return film;
+            }
+            pool.install(|| render_into_with(scene, &accel, &options, &mut film, &()));
+        }
+    }
+
+    #[test]
+    fn an_adaptive_render_in_any_passes_on_any_threads_is_one_image() {
+        let scene = scene();
+        for sampling in [
+            Sampling::NoiseThreshold {
+                threshold: 0.1,
+                min_spp: 4,
+                max_spp: 64,
+            },
+            Sampling::Budget { spp: 16 },
+        ] {
+            let straight = adaptive_film(&scene, sampling, 1000, 1);
+            let pieces = adaptive_film(&scene, sampling, 3, 4);
+            assert_eq!(straight, pieces, "{sampling}");
+            let plan = straight.plan.as_ref().unwrap();
+            let (least, most) = (plan.count.iter().min(), plan.count.iter().max());
+            assert!(least < most, "{sampling}: pixels got unequal samples");
+            if let Sampling::Budget { spp } = sampling {
+                assert_eq!(plan.total(), spp as u64 * 30);
+            }
+        }
     }
 
     #[test]

@@ -359,6 +359,7 @@ impl Study {
                         max_depth: setting.max_depth,
                         russian_roulette: setting.russian_roulette,
                     },
+                    sampling: crate::render::Sampling::Uniform,
                 };
                 render_with(&scene, &accel, &options, progress)
             };

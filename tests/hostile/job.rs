@@ -8,7 +8,7 @@ use luz::distributed::part;
 use luz::distributed::task::{Task, TaskError};
 use luz::image::io::WriteOptions;
 use luz::job::signals::{Stop, StopSignal};
-use luz::job::{JobError, Observer, Overrides, RenderJob, SampleChoice};
+use luz::job::{JobError, Observer, Overrides, RenderJob, SampleChoice, SamplingRequest};
 use luz::render::Progress;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -29,6 +29,8 @@ fn job(scene: &Path, output: PathBuf) -> RenderJob {
         checkpoint_every: None,
         resume: None,
         write: WriteOptions::default(),
+        sampling: SamplingRequest::Uniform,
+        time_limit: None,
     }
 }
 
@@ -178,4 +180,107 @@ fn task_errors_are_typed() {
         "{err}"
     );
     assert_eq!(err.exit_status(), 2);
+}
+
+/// `job` with adaptive sampling `sampling` over all samples.
+fn adaptive_job(output: PathBuf, sampling: SamplingRequest) -> RenderJob {
+    RenderJob {
+        sampling,
+        samples: SampleChoice::BatchSystem { count: None },
+        overrides: Overrides {
+            spp: Some(32),
+            resolution: Some((16, 16)),
+            ..Overrides::default()
+        },
+        ..job(&cornell(), output)
+    }
+}
+
+const ADAPTIVE: [SamplingRequest; 2] = [
+    SamplingRequest::NoiseThreshold {
+        threshold: 0.2,
+        min_spp: Some(4),
+        max_spp: None,
+    },
+    SamplingRequest::Budget,
+];
+
+#[test]
+fn a_stopped_adaptive_render_resumes_to_the_uninterrupted_image_bit_for_bit() {
+    let dir = temp_dir("adaptive-resume");
+    for (n, sampling) in ADAPTIVE.into_iter().enumerate() {
+        let straight = dir.join(format!("straight-{n}.exr"));
+        adaptive_job(straight.clone(), sampling)
+            .run(&(), &())
+            .unwrap();
+        let straight = part::read(&straight).unwrap();
+        let plan = straight.film.plan.as_ref().expect("an adaptive part");
+        assert!(
+            plan.count.iter().min() < plan.count.iter().max(),
+            "{sampling:?}"
+        );
+
+        let output = dir.join(format!("image-{n}.exr"));
+        let render = adaptive_job(output.clone(), sampling);
+        for passes in [1, 3] {
+            let stop = StopAfter {
+                asked: AtomicU32::new(0),
+                passes,
+            };
+            let err = render.run(&(), &stop).unwrap_err();
+            let JobError::Interrupted {
+                saved: Some((checkpoint, _)),
+                ..
+            } = &err
+            else {
+                panic!("{err}");
+            };
+            let mut resumed = render.clone();
+            resumed.resume = Some(checkpoint.clone());
+            let report = resumed.run(&(), &()).unwrap();
+            assert!(report.resumed_at > 0);
+            assert_eq!(report.sample_total, straight.film.total_samples());
+            assert_eq!(part::read(&output).unwrap(), straight, "{sampling:?}");
+        }
+    }
+}
+
+#[test]
+fn an_adaptive_render_refuses_a_task_and_another_sampling_s_checkpoint() {
+    let dir = temp_dir("adaptive-refusals");
+    let mut split = adaptive_job(dir.join("p.exr"), SamplingRequest::Budget);
+    split.samples = SampleChoice::Range(0..16);
+    let err = split.run(&(), &()).unwrap_err();
+    assert!(matches!(err, JobError::AdaptiveSplit { .. }), "{err}");
+    assert!(err.to_string().contains("render it in one job"), "{err}");
+    assert_eq!(err.exit_status(), 2);
+
+    let uniform = dir.join("uniform.exr");
+    adaptive_job(uniform.clone(), SamplingRequest::Uniform)
+        .run(&(), &())
+        .unwrap();
+    let mut render = adaptive_job(dir.join("image.exr"), SamplingRequest::Budget);
+    render.resume = Some(uniform);
+    let err = render.run(&(), &()).unwrap_err();
+    assert!(
+        matches!(&err, JobError::ResumeMismatch { mismatch, .. } if mismatch.attribute == "luz:sampling"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_time_limit_writes_the_samples_it_reached() {
+    let dir = temp_dir("time-limit");
+    let output = dir.join("image.exr");
+    let mut render = job(&cornell(), output.clone());
+    render.overrides.spp = Some(1 << 30);
+    render.samples = SampleChoice::Range(0..1 << 30);
+    render.time_limit = Some(std::time::Duration::from_millis(300));
+    let report = render.run(&(), &()).unwrap();
+    assert!(report.out_of_time);
+    let written = part::read(&output).unwrap();
+    let reached = report.samples.end;
+    assert!((1..1 << 30).contains(&reached), "{reached}");
+    assert_eq!(written.meta.ranges, vec![0..reached]);
+    assert_eq!(written.film.samples, reached as u64);
 }

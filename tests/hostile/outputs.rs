@@ -224,7 +224,7 @@ fn outputs_that_cannot_be_written_are_refused_before_rendering() {
 
 /// A full disk while checkpointing, simulated by a file-size limit with
 /// SIGXFSZ ignored (so writes fail with EFBIG, as they would with ENOSPC):
-/// the checkpoint (60 bytes per pixel) does not fit, the PNG does. The
+/// the checkpoint (72 bytes per pixel) does not fit, the PNG does. The
 /// render warns and goes on, and its output is complete.
 #[test]
 fn a_checkpoint_that_cannot_be_written_warns_and_the_render_goes_on() {

@@ -47,6 +47,11 @@ pub(crate) enum Command {
         /// Exit with status 1 when the RMSE exceeds this.
         #[arg(long, value_parser = parse_non_negative)]
         fail_above: Option<f64>,
+        /// Also count the pixel channels that differ by more than K
+        /// combined standard errors, from the stderr of luz's EXR renders
+        /// (an image that is not one counts as exact).
+        #[arg(long, value_name = "K", value_parser = parse_positive::<f64>)]
+        sigma: Option<f64>,
     },
     /// Merge renders of disjoint sample ranges of one scene (EXR files that
     /// `luz render` wrote) into the image of all their samples.
@@ -115,6 +120,28 @@ pub(crate) struct RenderArgs {
     /// Continue the render saved in this checkpoint.
     #[arg(long, value_name = "CHECKPOINT")]
     pub(crate) resume: Option<PathBuf>,
+    /// Adaptive sampling: each pixel samples until its relative standard
+    /// error (standard error over max(mean, 0.1), every channel) is at most
+    /// E at two decisions in a row (at --min-spp, twice that, ...), or it
+    /// has --max-spp samples.
+    #[arg(long, value_name = "E", value_parser = parse_positive::<f64>, conflicts_with = "adaptive")]
+    pub(crate) noise_threshold: Option<f64>,
+    /// Samples of every pixel before its first noise decision (default 16).
+    #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) min_spp: Option<u32>,
+    /// Most samples per pixel with --noise-threshold (default: --spp).
+    #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..))]
+    pub(crate) max_spp: Option<u32>,
+    /// Adaptive sampling at the budget of --spp: spp x pixels samples in
+    /// all, spent where the relative error is largest.
+    #[arg(long)]
+    pub(crate) adaptive: bool,
+    /// Render whole passes until this much time is spent (e.g. 90s, 5m),
+    /// then write what is done; with --noise-threshold, whichever comes
+    /// first. How many samples that is depends on the machine and its
+    /// load, so such a render is not reproducible.
+    #[arg(long, value_name = "DURATION", value_parser = parse_interval)]
+    pub(crate) time_limit: Option<Interval>,
     #[command(flatten)]
     pub(crate) tonemap: ToneMapArgs,
 }

@@ -8,9 +8,9 @@ use args::{Cli, Command, MergeArgs, RenderArgs, StudyArgs};
 use clap::Parser;
 use luz::distributed::part;
 use luz::distributed::task::Task;
-use luz::image::io as imageio;
-use luz::image::metrics;
-use luz::job::{self, signals, JobError, JobReport, RenderJob, SampleChoice};
+use luz::image::{metrics, zscore};
+use luz::job::{self, signals, JobError, JobReport, RenderJob, SampleChoice, SamplingRequest};
+use luz::render::Sampling;
 use luz::scene::Scene;
 use luz::study::{ReferenceSource, Study, StudyOptions};
 use progress::{progress_bar, Bar, RenderObserver};
@@ -69,7 +69,8 @@ fn main() -> ExitCode {
             abs_tol,
             rel_tol,
             fail_above,
-        } => compare(&a, &b, abs_tol, rel_tol, fail_above),
+            sigma,
+        } => compare(&a, &b, abs_tol, rel_tol, fail_above, sigma),
         Command::Merge(args) => merge_parts(&args),
         Command::Study(args) => study(args),
         Command::Info => info(),
@@ -116,6 +117,16 @@ fn render(args: RenderArgs) -> Result<(), Failure> {
         checkpoint_every: args.checkpoint_every.0,
         resume: args.resume.clone(),
         write: args.tonemap.write_options(),
+        sampling: match (args.noise_threshold, args.adaptive) {
+            (Some(threshold), _) => SamplingRequest::NoiseThreshold {
+                threshold,
+                min_spp: args.min_spp,
+                max_spp: args.max_spp,
+            },
+            (None, true) => SamplingRequest::Budget,
+            (None, false) => SamplingRequest::Uniform,
+        },
+        time_limit: args.time_limit.and_then(|limit| limit.0),
     };
     let signals = signals::install().map_err(Failure::other)?;
     let observer = RenderObserver::new(args.quiet);
@@ -163,11 +174,24 @@ fn summary(r: &JobReport) -> String {
     }
     let (width, height) = r.resolution;
     let stats = &r.stats;
+    let out_of_time = if r.out_of_time {
+        " (stopped by --time-limit)"
+    } else {
+        ""
+    };
+    let samples = match r.sampling {
+        Sampling::Uniform => format!(
+            "samples {}..{}{resumed}{out_of_time} of {} spp",
+            r.samples.start, r.samples.end, r.spp
+        ),
+        sampling => format!(
+            "{sampling}: {:.1} spp on average, up to {}{resumed}{out_of_time}",
+            r.sample_total as f64 / (width as f64 * height as f64),
+            r.samples.end
+        ),
+    };
     format!(
-        "{width}x{height}, samples {}..{}{resumed} of {} spp, {} backend (loaded in {:.3} s, hashed in {:.3} s, built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s{saved} -> {}",
-        r.samples.start,
-        r.samples.end,
-        r.spp,
+        "{width}x{height}, {samples}, {} backend (loaded in {:.3} s, hashed in {:.3} s, built in {:.3} s), {} threads: {:.3} s, {:.2} Msamples/s, {:.2} Mrays/s, estimated relative error {:.2}% (relMSE {:.3e}){saved} -> {}",
         r.backend,
         r.load_time.as_secs_f64(),
         r.hash_time.as_secs_f64(),
@@ -176,6 +200,8 @@ fn summary(r: &JobReport) -> String {
         stats.wall.as_secs_f64(),
         stats.msamples_per_s(),
         stats.mrays_per_s(),
+        100.0 * r.estimate.rel_error(),
+        r.estimate.rel_mse,
         r.output.display()
     )
 }
@@ -298,12 +324,18 @@ fn compare(
     abs_tol: f64,
     rel_tol: f64,
     fail_above: Option<f64>,
+    sigma: Option<f64>,
 ) -> Result<(), Failure> {
-    let image_a = imageio::read(a).map_err(Failure::input)?;
-    let image_b = imageio::read(b).map_err(Failure::input)?;
+    let (image_a, error_a) = job::read_with_error(a).map_err(Failure::job)?;
+    let (image_b, error_b) = job::read_with_error(b).map_err(Failure::job)?;
     let comparison =
         metrics::compare(&image_a, &image_b, abs_tol, rel_tol).map_err(Failure::input)?;
     print_stdout(&format!("{comparison}\n"))?;
+    if let Some(k) = sigma {
+        let noise = zscore::compare_in_noise((&image_a, &error_a), (&image_b, &error_b), k)
+            .map_err(Failure::input)?;
+        print_stdout(&format!("{noise}\n"))?;
+    }
     match fail_above {
         Some(limit) if comparison.rmse.is_nan() || comparison.rmse > limit => {
             Err(Failure::other(format!(

@@ -4,6 +4,7 @@
 use super::ranges::{format_ranges, parse_range};
 use super::{PartError, PartMeta};
 use crate::accel::BackendKind;
+use crate::render::{Film, Sampling};
 use exr::meta::header::Header;
 use exr::prelude::{AttributeValue, LayerAttributes, Text};
 use std::collections::HashMap;
@@ -15,31 +16,47 @@ pub(super) const SCENE_HASH: &str = "luz:sceneHash";
 pub(super) const SEED: &str = "luz:seed";
 pub(super) const SPP: &str = "luz:spp";
 pub(super) const SAMPLES: &str = "luz:samples";
+pub(super) const SAMPLING: &str = "luz:sampling";
+pub(super) const SAMPLE_TOTAL: &str = "luz:sampleTotal";
 pub(super) const BACKEND: &str = "luz:backend";
 pub(super) const NON_FINITE: &str = "luz:nonFinite";
 pub(super) const CHECKSUM: &str = "luz:checksum";
 /// The checksummed attributes, in the order they are written and hashed;
 /// `luz:checksum` follows them.
-pub(super) const ATTRIBUTES: [&str; 7] =
-    [VERSION, SCENE_HASH, SEED, SPP, SAMPLES, BACKEND, NON_FINITE];
+pub(super) const ATTRIBUTES: [&str; 9] = [
+    VERSION,
+    SCENE_HASH,
+    SEED,
+    SPP,
+    SAMPLES,
+    SAMPLING,
+    SAMPLE_TOTAL,
+    BACKEND,
+    NON_FINITE,
+];
 
-/// The texts of the checksummed attributes of a part, in [`ATTRIBUTES`]
-/// order.
-pub(super) fn attribute_texts(meta: &PartMeta, non_finite: u64) -> [String; 7] {
+/// The texts of the checksummed attributes, in [`ATTRIBUTES`] order.
+pub(super) type Texts = [String; 9];
+
+/// The texts of the checksummed attributes of a part holding `film`, in
+/// [`ATTRIBUTES`] order.
+pub(super) fn attribute_texts(meta: &PartMeta, film: &Film) -> Texts {
     [
         meta.version.clone(),
         format!("{:016x}", meta.scene_hash),
         meta.seed.to_string(),
         meta.spp.to_string(),
         format_ranges(&meta.ranges),
+        meta.sampling.to_string(),
+        film.total_samples().to_string(),
         meta.backend.name().to_string(),
-        non_finite.to_string(),
+        film.non_finite.to_string(),
     ]
 }
 
 /// The header attributes of a part whose checksummed attributes hold
 /// `texts` and whose checksum is `checksum`.
-pub(super) fn layer_attributes(texts: &[String; 7], checksum: u64) -> LayerAttributes {
+pub(super) fn layer_attributes(texts: &Texts, checksum: u64) -> LayerAttributes {
     let text = |s: &str| AttributeValue::Text(Text::from(s));
     let mut other: HashMap<Text, AttributeValue> = ATTRIBUTES
         .iter()
@@ -56,8 +73,9 @@ pub(super) fn layer_attributes(texts: &[String; 7], checksum: u64) -> LayerAttri
 /// The luz attributes of a part's header, each parsed and checked.
 pub(super) struct ParsedAttributes {
     /// Their texts, in [`ATTRIBUTES`] order: what the checksum hashes.
-    pub texts: [String; 7],
+    pub texts: Texts,
     pub meta: PartMeta,
+    pub sample_total: u64,
     pub non_finite: u64,
     /// The `luz:checksum` stored.
     pub checksum: u64,
@@ -70,16 +88,18 @@ pub(super) fn parse_attributes(
     header: &Header,
 ) -> Result<ParsedAttributes, PartError> {
     let text = |name: &str| attribute_text(path, header, name);
-    let texts: [String; 7] = [
+    let texts: Texts = [
         text(VERSION)?,
         text(SCENE_HASH)?,
         text(SEED)?,
         text(SPP)?,
         text(SAMPLES)?,
+        text(SAMPLING)?,
+        text(SAMPLE_TOTAL)?,
         text(BACKEND)?,
         text(NON_FINITE)?,
     ];
-    let [version, hash_text, seed_text, spp_text, ranges_text, backend_text, non_finite_text] =
+    let [version, hash_text, seed_text, spp_text, ranges_text, sampling_text, total_text, backend_text, non_finite_text] =
         &texts;
     // Fields are evaluated in the order written: the first bad one is the
     // one reported.
@@ -90,8 +110,12 @@ pub(super) fn parse_attributes(
         spp: u32::try_from(number(path, SPP, spp_text)?)
             .map_err(|_| PartError::invalid(path, SPP, "does not fit in 32 bits".into()))?,
         ranges: sample_ranges(path, ranges_text)?,
+        sampling: sampling_text
+            .parse::<Sampling>()
+            .map_err(|m| PartError::invalid(path, SAMPLING, m))?,
         backend: traced_by(path, backend_text)?,
     };
+    let sample_total = number(path, SAMPLE_TOTAL, total_text)?;
     let non_finite = number(path, NON_FINITE, non_finite_text)?;
     let checksum = match header.own_attributes.other.get(&Text::from(CHECKSUM)) {
         None => {
@@ -104,6 +128,7 @@ pub(super) fn parse_attributes(
     Ok(ParsedAttributes {
         texts,
         meta,
+        sample_total,
         non_finite,
         checksum,
     })

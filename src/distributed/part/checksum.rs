@@ -1,18 +1,18 @@
 //! `luz:checksum`: xxh3-64 of a part's metadata and sums (see the module
 //! docs of [`super`] for what goes in, and why xxh3-64).
 
-use super::attributes::ATTRIBUTES;
+use super::attributes::{Texts, ATTRIBUTES};
 use super::PartError;
 use crate::render::Film;
 use std::path::Path;
 use xxhash_rust::xxh3::Xxh3;
 
 /// Versions the checksum's input; a change of what is hashed changes it.
-const CHECKSUM_TAG: &[u8] = b"luz part checksum 1\0";
+const CHECKSUM_TAG: &[u8] = b"luz part checksum 2\0";
 
 /// The `luz:checksum` of a part whose checksummed attributes hold `texts`
 /// (in [`ATTRIBUTES`] order) and whose film is `film`.
-pub(super) fn checksum(texts: &[String; 7], film: &Film) -> u64 {
+pub(super) fn checksum(texts: &Texts, film: &Film) -> u64 {
     let mut h = Xxh3::new();
     h.update(CHECKSUM_TAG);
     for (name, text) in ATTRIBUTES.iter().zip(texts) {
@@ -34,6 +34,15 @@ pub(super) fn checksum(texts: &[String; 7], film: &Film) -> u64 {
             }
         }
     }
+    if let Some(plan) = &film.plan {
+        for values in [&plan.count, &plan.goal] {
+            for v in values {
+                h.update(&v.to_le_bytes());
+            }
+        }
+        let met: Vec<u8> = plan.met.iter().map(|&m| m as u8).collect();
+        h.update(&met);
+    }
     h.digest()
 }
 
@@ -41,7 +50,7 @@ pub(super) fn checksum(texts: &[String; 7], film: &Film) -> u64 {
 /// not give the `stored` checksum.
 pub(super) fn verify_checksum(
     path: &Path,
-    texts: &[String; 7],
+    texts: &Texts,
     film: &Film,
     stored: u64,
 ) -> Result<(), PartError> {
@@ -65,7 +74,7 @@ mod tests {
     #[test]
     fn the_checksum_covers_every_sum_bit_every_attribute_and_the_shape() {
         let part = sample_part();
-        let texts = attribute_texts(&part.meta, part.film.non_finite);
+        let texts = attribute_texts(&part.meta, &part.film);
         let base = checksum(&texts, &part.film);
         let mut seen = vec![base];
         for bit in 0..64 {

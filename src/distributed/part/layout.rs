@@ -18,6 +18,7 @@ pub(super) fn check_layout(
     header: &Header,
     header_len: usize,
     file_len: usize,
+    adaptive: bool,
 ) -> Result<(), PartError> {
     let invalid = |field: &str, message: String| PartError::invalid(path, field, message);
     let (width, height) = (header.layer_size.width(), header.layer_size.height());
@@ -35,7 +36,7 @@ pub(super) fn check_layout(
             format!("{}: luz writes its parts uncompressed", header.compression),
         ));
     }
-    check_channels(path, header)?;
+    check_channels(path, header, adaptive)?;
     // After the header, each scan-line chunk has an offset-table entry (8
     // bytes), its y and its byte count (4 + 4), and then its pixels.
     let bytes_per_pixel = header.channels.bytes_per_pixel;
@@ -56,9 +57,9 @@ pub(super) fn check_layout(
 }
 
 /// Every channel of a part, of its type, each with one sample per pixel.
-fn check_channels(path: &Path, header: &Header) -> Result<(), PartError> {
+fn check_channels(path: &Path, header: &Header, adaptive: bool) -> Result<(), PartError> {
     let invalid = |field: &str, message: String| PartError::invalid(path, field, message);
-    for (name, sample_type) in part_channels() {
+    for (name, sample_type) in part_channels(adaptive) {
         let found = header
             .channels
             .list
@@ -115,15 +116,15 @@ mod tests {
                 PartError::Truncated {
                     width: 16000,
                     height: 16000,
-                    bytes_per_pixel: 60,
+                    bytes_per_pixel: 72,
                     ..
                 }
             ),
             "{message}"
         );
         assert!(message.contains(&format!(
-            "p.exr: dataWindow: 16000x16000 pixels of 60 bytes need at least {} bytes, the file holds {}",
-            header_records(&bytes).unwrap().unwrap().1 as u64 + 16000 * 16 + 16000 * 16000 * 60,
+            "p.exr: dataWindow: 16000x16000 pixels of 72 bytes need at least {} bytes, the file holds {}",
+            header_records(&bytes).unwrap().unwrap().1 as u64 + 16000 * 16 + 16000 * 16000 * 72,
             bytes.len()
         )), "{message}");
 

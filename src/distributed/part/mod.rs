@@ -7,11 +7,18 @@
 //! One uncompressed scan-line layer:
 //!
 //! - `R`, `G`, `B` (f32): the mean radiance, what viewers display;
+//! - `stderr.R`, `stderr.G`, `stderr.B` (f32): the standard error of each
+//!   pixel's mean (the sample standard deviation over √n), so that a viewer
+//!   shows where the image is still noisy;
 //! - `luz.sum.{R,G,B}.{hi,lo}` and `luz.sumsq.{R,G,B}.{hi,lo}` (u32): the
 //!   bits of the f64 per-pixel sums of samples and of their squares, high
 //!   and low words. EXR has no f64 channels; storing the bits keeps the sums
 //!   exact, so a resumed render continues the very same running sums and a
-//!   merge adds the sums the renders computed.
+//!   merge adds the sums the renders computed;
+//! - in an adaptive part only, `luz.count`, `luz.goal` and `luz.met` (u32):
+//!   each pixel's sample count, the count it renders on to before its next
+//!   decision, and whether it met the noise threshold at its last decision
+//!   (see [`crate::render::adaptive`]).
 //!
 //! and these header attributes (text, since EXR has no 64-bit integers),
 //! written in this order, so that two renders of one part are the same
@@ -24,6 +31,8 @@
 //! | `luz:seed` | the render's seed |
 //! | `luz:spp` | the samples per pixel of the whole render this is part of |
 //! | `luz:samples` | the sample indices held, as ranges `A..B`, comma separated |
+//! | `luz:sampling` | `uniform`, `noise-threshold E MIN..MAX` or `adaptive SPP` ([`Sampling`]) |
+//! | `luz:sampleTotal` | the samples of all pixels together |
 //! | `luz:backend` | the intersection backend ([`BackendKind`] name: `rust`, `embree`) |
 //! | `luz:nonFinite` | samples dropped as not finite |
 //! | `luz:checksum` | xxh3-64 of all of the above, the resolution, the sample count and the sums, 16 hex digits |
@@ -44,7 +53,9 @@
 //!   tag, the other luz attributes' texts in the order of the table (name
 //!   and value, each followed by a zero byte), width, height and sample
 //!   count (little-endian), then the bits of every sum and then every sum of
-//!   squares, pixel by pixel in R, G, B order (little-endian u64). It guards
+//!   squares, pixel by pixel in R, G, B order (little-endian u64), and in an
+//!   adaptive part every count, every goal (little-endian u32) and every
+//!   met flag (a byte). It guards
 //!   against damage and careless edits, not against forgery (anyone can
 //!   recompute it), so a fast non-cryptographic hash is the right tool: a
 //!   random change goes unseen with probability 2⁻⁶⁴, ample for that job,
@@ -79,10 +90,10 @@ pub use ranges::{format_ranges, parse_range};
 use crate::accel::BackendKind;
 use crate::image::io::write_atomic;
 use crate::image::ImageError;
-use crate::render::Film;
+use crate::render::{Film, Sampling};
 use attributes::{
-    attribute_texts, layer_attributes, parse_attributes, ParsedAttributes, BACKEND, SCENE_HASH,
-    SEED, VERSION,
+    attribute_texts, layer_attributes, parse_attributes, ParsedAttributes, BACKEND, SAMPLE_TOTAL,
+    SAMPLING, SCENE_HASH, SEED, VERSION,
 };
 use checksum::{checksum, verify_checksum};
 use exr::meta::MetaData;
@@ -95,15 +106,18 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 /// What a part is a part of, and which samples it holds.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct PartMeta {
     pub version: String,
     pub scene_hash: u64,
     pub seed: u64,
     /// Samples per pixel of the whole render.
     pub spp: u32,
-    /// Sample indices held: sorted, disjoint, none empty.
+    /// Sample indices held: sorted, disjoint, none empty. An adaptive
+    /// part's pixels hold `0..count` each, up to its one range's end.
     pub ranges: Vec<Range<u32>>,
+    /// How the samples are spread over the pixels.
+    pub sampling: Sampling,
     /// The backend that traced the samples: `Rust` or `Embree`, never
     /// `Auto` (which is a request, not a backend).
     pub backend: BackendKind,
@@ -137,6 +151,11 @@ pub fn first_mismatch(
         ("dataWindow", size(our_size), size(their_size)),
         (SCENE_HASH, hash(ours.scene_hash), hash(theirs.scene_hash)),
         (SEED, ours.seed.to_string(), theirs.seed.to_string()),
+        (
+            SAMPLING,
+            ours.sampling.to_string(),
+            theirs.sampling.to_string(),
+        ),
         (
             BACKEND,
             ours.backend.name().to_string(),
@@ -228,8 +247,13 @@ impl PartError {
 /// (see the module docs for the layout). The same part gives the same
 /// bytes, whichever process writes it.
 pub fn write(path: &Path, meta: &PartMeta, film: &Film) -> Result<(), PartError> {
+    assert_eq!(
+        film.plan.is_some(),
+        meta.sampling.is_adaptive(),
+        "an adaptive part's film has a plan, a uniform one's none"
+    );
     let channels = channels::film_channels(film);
-    let texts = attribute_texts(meta, film.non_finite);
+    let texts = attribute_texts(meta, film);
     let attributes = layer_attributes(&texts, checksum(&texts, film));
     let layer = Layer::new(
         (film.width as usize, film.height as usize),
@@ -250,6 +274,23 @@ pub fn write(path: &Path, meta: &PartMeta, film: &Film) -> Result<(), PartError>
         ordered.finish().map_err(|e| format(e.to_string()))
     })?;
     Ok(())
+}
+
+/// Whether `path` is an OpenEXR file whose header carries luz's part
+/// attributes, damaged or not: such a file is read with [`read`], which
+/// says what is wrong with it, rather than as a plain image.
+pub fn is_part(path: &Path) -> bool {
+    let Ok(file) = std::fs::File::open(path) else {
+        return false;
+    };
+    let Ok(meta) = MetaData::read_from_buffered(std::io::BufReader::new(file), false) else {
+        return false;
+    };
+    meta.headers.iter().any(|h| {
+        h.own_attributes
+            .other
+            .contains_key(&exr::prelude::Text::from(VERSION))
+    })
 }
 
 /// Reads a part that [`write`] wrote, checking every field, the checksum
@@ -279,14 +320,16 @@ pub fn read(path: &Path) -> Result<Part, PartError> {
     let ParsedAttributes {
         texts,
         meta,
+        sample_total,
         non_finite,
         checksum: stored,
     } = parse_attributes(path, header)?;
+    let adaptive = meta.sampling.is_adaptive();
     let header_len = match header_records(&data) {
         Ok(Some((_, end))) => end,
         _ => 0,
     };
-    check_layout(path, header, header_len, data.len())?;
+    check_layout(path, header, header_len, data.len(), adaptive)?;
 
     let image = exr::prelude::read()
         .no_deep_data()
@@ -296,10 +339,54 @@ pub fn read(path: &Path) -> Result<Part, PartError> {
         .all_attributes()
         .from_buffered(std::io::Cursor::new(data))
         .map_err(unreadable)?;
-    let mut film = channels::film_of_sums(path, &image.layer_data)?;
-    film.samples = meta.sample_count();
+    let mut film = channels::film_of_sums(path, &image.layer_data, adaptive)?;
+    film.samples = match &film.plan {
+        None => meta.sample_count(),
+        Some(plan) => plan.count.iter().copied().max().unwrap_or(0) as u64,
+    };
     film.non_finite = non_finite;
     verify_checksum(path, &texts, &film, stored)?;
     check_plausible(path, &film)?;
+    check_plan(path, &meta, &film, sample_total)?;
     Ok(Part { meta, film })
+}
+
+/// Refuses a part whose sample total is not its pixels' counts', or an
+/// adaptive part whose counts pass its goals or its range.
+fn check_plan(path: &Path, meta: &PartMeta, film: &Film, total: u64) -> Result<(), PartError> {
+    if film.total_samples() != total {
+        return Err(PartError::invalid(
+            path,
+            SAMPLE_TOTAL,
+            format!(
+                "{total}, but the pixels hold {} samples",
+                film.total_samples()
+            ),
+        ));
+    }
+    let Some(plan) = &film.plan else {
+        return Ok(());
+    };
+    let end = meta.ranges.last().map_or(0, |r| r.end);
+    if meta.ranges.len() != 1 || meta.ranges[0].start != 0 {
+        return Err(PartError::invalid(
+            path,
+            attributes::SAMPLES,
+            "an adaptive part holds one range from 0".into(),
+        ));
+    }
+    match (0..plan.count.len()).find(|&i| plan.count[i] > plan.goal[i] || plan.count[i] > end) {
+        Some(i) => Err(PartError::invalid(
+            path,
+            channels::COUNT,
+            format!(
+                "pixel ({}, {}) holds {} samples, past its goal {} or the range's end {end}",
+                i % film.width as usize,
+                i / film.width as usize,
+                plan.count[i],
+                plan.goal[i]
+            ),
+        )),
+        None => Ok(()),
+    }
 }

@@ -72,9 +72,9 @@ impl fmt::Display for SumProblem {
 
 /// The first impossible sum of `film`, as (pixel index, channel, problem).
 fn implausible_sum(film: &Film) -> Option<(usize, usize, SumProblem)> {
-    let n = film.samples as f64;
-    let slack = 1.0 + 4.0 * n * f64::EPSILON;
     for (i, (s, q)) in film.sum.iter().zip(&film.sum_sq).enumerate() {
+        let n = film.count(i) as f64;
+        let slack = 1.0 + 4.0 * n * f64::EPSILON;
         for c in 0..3 {
             for (kind, value) in [(SumKind::Sum, s[c]), (SumKind::SumSq, q[c])] {
                 if !value.is_finite() {
@@ -88,7 +88,7 @@ fn implausible_sum(film: &Film) -> Option<(usize, usize, SumProblem)> {
                 let problem = SumProblem::CauchySchwarz {
                     sum: s[c],
                     sum_sq: q[c],
-                    samples: film.samples,
+                    samples: film.count(i),
                 };
                 return Some((i, c, problem));
             }
@@ -110,7 +110,7 @@ pub(super) fn check_plausible(path: &Path, film: &Film) -> Result<(), PartError>
             problem,
         });
     }
-    let most = film.samples.saturating_mul((width * height) as u64);
+    let most = film.total_samples();
     if film.non_finite > most {
         return Err(PartError::invalid(
             path,

@@ -31,6 +31,7 @@ pub(super) fn sample_part() -> Part {
             seed: u64::MAX,
             spp: 9,
             ranges: vec![1..3, 4..9],
+            sampling: crate::render::Sampling::Uniform,
             backend: BackendKind::Rust,
         },
         film,
@@ -85,10 +86,12 @@ fn a_damaged_or_edited_part_fails_its_checksum() {
             "{message}"
         );
     };
-    // The last four bytes are the low word of the last pixel's last
-    // channel (luz.sumsq.R.lo): its lowest bit is one ulp of the sum.
+    // The last row ends with luz.sumsq.R.lo and then the three stderr
+    // channels (channels are sorted by name), 3 pixels of 4 bytes each: the
+    // four bytes before those are the low word of the last pixel's
+    // luz.sumsq.R, whose lowest bit is one ulp of the sum.
     let mut flipped = bytes.clone();
-    let at = flipped.len() - 4;
+    let at = flipped.len() - 4 - 3 * 3 * 4;
     flipped[at] ^= 1;
     refused(&flipped);
     // An edited seed, same length.
@@ -187,5 +190,74 @@ fn impossible_sums_are_refused_even_under_a_fresh_checksum() {
         err.contains("0.exr: luz.sum.G, luz.sumsq.G: pixel (1, 0)"),
         "{err}"
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+/// `sample_part` as the first decisions of an adaptive render left it.
+fn adaptive_part() -> Part {
+    let mut part = sample_part();
+    part.meta.sampling = crate::render::Sampling::NoiseThreshold {
+        threshold: 0.05,
+        min_spp: 4,
+        max_spp: 9,
+    };
+    part.meta.ranges = std::iter::once(0..9).collect();
+    part.film.samples = 7;
+    part.film.non_finite = 0;
+    part.film.plan = Some(crate::render::PixelPlan {
+        count: vec![4, 7, 7, 4, 6, 7],
+        goal: vec![4, 8, 8, 4, 8, 8],
+        met: vec![true, false, true, true, false, false],
+    });
+    part
+}
+
+#[test]
+fn an_adaptive_part_keeps_its_plan_and_every_part_its_standard_errors() {
+    let dir = temp_dir("adaptive");
+    for part in [sample_part(), adaptive_part()] {
+        let (path, _) = written(&dir, "p.exr", &part);
+        assert_eq!(read(&path).unwrap(), part);
+        // Any EXR reader sees the standard errors as float channels.
+        let exr = exr::prelude::read_all_flat_layers_from_file(&path).unwrap();
+        let channels = &exr.layer_data[0].channel_data.list;
+        let stderr = part.film.standard_error();
+        for (c, name) in ["stderr.R", "stderr.G", "stderr.B"].iter().enumerate() {
+            let found = channels.iter().find(|ch| ch.name == **name).unwrap();
+            let values: Vec<f32> = found.sample_data.values_as_f32().collect();
+            let want: Vec<f32> = stderr.pixels.iter().map(|p| p[c]).collect();
+            assert_eq!(values, want, "{name}");
+        }
+    }
+    let err = crate::distributed::merge::merge(vec![(dir.join("p.exr"), adaptive_part())], false)
+        .unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("an adaptive render does not split into parts"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn an_adaptive_part_with_an_edited_count_or_total_is_refused() {
+    let dir = temp_dir("adaptive-edit");
+    let mut past_goal = adaptive_part();
+    past_goal.film.plan.as_mut().unwrap().goal[1] = 5;
+    let (path, _) = written(&dir, "goal.exr", &past_goal);
+    let err = read(&path).unwrap_err().to_string();
+    assert!(
+        err.contains("goal.exr: luz.count: pixel (1, 0) holds 7 samples, past its goal 5"),
+        "{err}"
+    );
+    // A count changed after writing: the checksum covers the plan.
+    let (path, bytes) = written(&dir, "count.exr", &adaptive_part());
+    let total = value_of(&bytes, super::attributes::SAMPLE_TOTAL);
+    assert_eq!(&bytes[total.clone()], b"35");
+    let mut edited = bytes.clone();
+    edited[total.start + 1] = b'6';
+    std::fs::write(&path, &edited).unwrap();
+    let err = read(&path).unwrap_err();
+    assert!(matches!(err, PartError::Checksum { .. }), "{err}");
     std::fs::remove_dir_all(&dir).unwrap();
 }
