@@ -76,7 +76,9 @@ impl Progress for () {
     fn row_done(&self, _samples: u32) {}
 }
 
-/// Renders `options.samples` of every pixel of `scene` through `backend`.
+/// Renders `options.samples` of every pixel of `scene` through `backend`;
+/// with adaptive `options.sampling`, until every pixel has stopped, in one
+/// pass per decision.
 pub fn render<B: Backend + ?Sized>(
     scene: &Scene,
     backend: &B,
@@ -84,7 +86,27 @@ pub fn render<B: Backend + ?Sized>(
     progress: &dyn Progress,
 ) -> (Film, RenderStats) {
     let mut film = Film::new(scene.camera.width, scene.camera.height);
-    let stats = render_into(scene, backend, options, &mut film, progress);
+    film.plan = options.sampling.first_plan(film.sum.len());
+    if film.plan.is_none() {
+        let stats = render_into(scene, backend, options, &mut film, progress);
+        return (film, stats);
+    }
+    let start = Instant::now();
+    let mut stats = RenderStats {
+        wall: Duration::ZERO,
+        rays: RayCounts::default(),
+        samples: 0,
+    };
+    let whole = RenderOptions {
+        samples: 0..u32::MAX,
+        ..options.clone()
+    };
+    while !film.plan.as_ref().is_some_and(|p| p.at_goals()) || options.sampling.decide(&mut film) {
+        let pass = render_into(scene, backend, &whole, &mut film, progress);
+        stats.rays.add(&pass.rays);
+        stats.samples += pass.samples;
+    }
+    stats.wall = start.elapsed();
     (film, stats)
 }
 
