@@ -16,6 +16,7 @@
 //! than the largest body its header's counts allow.
 
 mod checks;
+mod chunks;
 mod fail;
 mod gzip;
 mod obj;
