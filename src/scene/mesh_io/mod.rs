@@ -20,6 +20,7 @@ mod chunks;
 mod fail;
 mod gzip;
 mod obj;
+mod obj_chunks;
 mod obj_scan;
 mod ply;
 #[cfg(test)]
