@@ -6,7 +6,7 @@
 //! takes about 160 ms (release; the cross-check test prints both), and it
 //! reports errors with the line (ascii) or the record (binary) where they
 //! happen. Large ascii PLY bodies and OBJ files are read in parallel
-//! chunks cut at line ends ([`ply`]'s ascii reader, [`obj_chunks`]), with
+//! chunks cut at line ends (`ply::ascii`, `obj_chunks`), with
 //! the serial reader deciding whatever a chunk cannot: the mesh and every
 //! error are the serial reader's.
 //!
