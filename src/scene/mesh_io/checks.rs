@@ -63,22 +63,148 @@ pub(crate) fn is_degenerate(p @ [a, b, c]: [Vec3; 3]) -> bool {
     e1.cross(e2).length() <= 1e-6 * e1.length() * e2.length()
 }
 
+/// How [`is_degenerate`] answers for `p`, from squared lengths (no square
+/// roots, no branches, so a loop of it vectorises): `SURE_NO`, `SURE_YES`,
+/// or `UNSURE` within a relative 1e-6 of the threshold, where only
+/// [`is_degenerate`] itself decides. Every finite f32 triangle's squared f64
+/// lengths and products stay inside f64's normal range (≤ 1e156, ≥ 1e-180),
+/// and the rounding of either form is a few ulps (1e-15 relative), far
+/// inside the margin, so a sure answer is [`is_degenerate`]'s.
+#[inline(always)]
+fn classify(p @ [a, b, c]: [Vec3; 3]) -> u8 {
+    let zero = crate::geometry::has_zero_area(p);
+    let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
+    let (e1, e2) = (b - a, c - a);
+    let x = e1.cross(e2).length_squared();
+    let t = 1e-12 * e1.length_squared() * e2.length_squared();
+    let above = x > t * (1.0 + 1e-6);
+    let below = x < t * (1.0 - 1e-6);
+    // NaN (not from a validated file) fails both and goes to the exact test.
+    let yes = zero | below;
+    let no = !zero & above;
+    (yes as u8) * SURE_YES + (no as u8) * SURE_NO + (!yes & !no) as u8 * UNSURE
+}
+
+const SURE_NO: u8 = 0;
+const SURE_YES: u8 = 1;
+const UNSURE: u8 = 2;
+
+/// Whether triangle `t` of `positions` is degenerate: [`is_degenerate`],
+/// through [`classify`].
+#[inline(always)]
+fn degenerate_at(positions: &[Vec3], t: &[u32; 3]) -> bool {
+    let p = t.map(|i| positions[i as usize]);
+    match classify(p) {
+        SURE_NO => false,
+        SURE_YES => true,
+        _ => is_degenerate(p),
+    }
+}
+
+/// Whether any triangle of `block` is degenerate: one branch-free pass of
+/// [`classify`], then the exact test only for the unsure ones.
+fn any_degenerate(positions: &[Vec3], block: &[[u32; 3]]) -> bool {
+    let mut seen = 0u8;
+    for t in block {
+        seen |= 1 << classify(t.map(|i| positions[i as usize]));
+    }
+    seen & (1 << SURE_YES) != 0
+        || seen & (1 << UNSURE) != 0 && block.iter().any(|t| degenerate_at(positions, t))
+}
+
 /// Drops the degenerate triangles (see [`is_degenerate`]). Most meshes have
-/// none, so a parallel search comes first and the (serial) removal runs
-/// only when it finds one. Returns how many it dropped.
+/// none, so a parallel search comes first (blocks of [`classify`], the
+/// exact test only near its threshold); when it finds one, the triangles
+/// are marked in parallel and the marks drive one serial compaction.
+/// Returns how many it dropped.
 pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) -> usize {
     use rayon::prelude::*;
-    let degenerate = |t: &[u32; 3]| is_degenerate(t.map(|i| positions[i as usize]));
-    let before = indices.len();
-    if indices.par_iter().with_min_len(4096).any(degenerate) {
-        indices.retain(|t| !degenerate(t));
+    const BLOCK: usize = 1 << 13;
+    if !indices
+        .par_chunks(BLOCK)
+        .any(|block| any_degenerate(positions, block))
+    {
+        return 0;
     }
+    let drop: Vec<bool> = indices
+        .par_iter()
+        .with_min_len(BLOCK)
+        .map(|t| degenerate_at(positions, t))
+        .collect();
+    let before = indices.len();
+    let mut marks = drop.iter();
+    indices.retain(|_| !marks.next().copied().unwrap_or(false));
     before - indices.len()
 }
 
 #[cfg(test)]
 mod tests {
     use super::super::test_support::{err, ply};
+    use super::{degenerate_at, drop_degenerate, is_degenerate};
+    use crate::math::Vec3;
+
+    fn xorshift(x: &mut u64) -> u64 {
+        *x ^= *x << 13;
+        *x ^= *x >> 7;
+        *x ^= *x << 17;
+        *x
+    }
+
+    /// The cheap test answers as [`is_degenerate`] does: on random
+    /// triangles at many scales, on triangles whose angle straddles the
+    /// threshold by a few ulps, on repeated vertices and on underflow.
+    #[test]
+    fn cheap_test_matches_the_exact_one() {
+        fn unit(x: &mut u64) -> f32 {
+            (xorshift(x) >> 40) as f32 / (1u64 << 24) as f32 - 0.5
+        }
+        let mut x = 0x9e37_79b9_7f4a_7c15u64;
+        let mut tris = Vec::new();
+        for k in 0..200_000 {
+            let scale = [1e-30f32, 1e-20, 1e-6, 1.0, 1e6, 1e30][k % 6];
+            let v = |x: &mut u64| Vec3::new(unit(x), unit(x), unit(x)) * scale;
+            let a = v(&mut x);
+            let b = v(&mut x);
+            let c = match k % 4 {
+                0 => v(&mut x),
+                1 => a,
+                2 => a + (b - a) * unit(&mut x),
+                _ => {
+                    // Angle at `a` near 1e-6 rad, nudged by a few ulps.
+                    let h = 1e-6 * (1.0 + 1e-5 * unit(&mut x));
+                    let d = Vec3::new(1.0, h, 0.0) * scale;
+                    let c = a + d;
+                    Vec3::from_array(c.to_array().map(|f| {
+                        f32::from_bits(f.to_bits().wrapping_add((xorshift(&mut x) % 5) as u32))
+                    }))
+                }
+            };
+            tris.push([a, b, c]);
+        }
+        let positions: Vec<Vec3> = tris.iter().flatten().copied().collect();
+        let indices: Vec<[u32; 3]> = (0..tris.len() as u32)
+            .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+            .collect();
+        let mut want = 0;
+        for (t, p) in indices.iter().zip(&tris) {
+            let exact = is_degenerate(*p);
+            want += exact as usize;
+            assert_eq!(degenerate_at(&positions, t), exact, "{p:?}");
+        }
+        assert!(want > 1000 && want < tris.len() - 1000, "{want}");
+        let mut kept = indices.clone();
+        let dropped = drop_degenerate(&positions, &mut kept);
+        let mut old = indices.clone();
+        old.retain(|t| !is_degenerate(t.map(|i| positions[i as usize])));
+        assert_eq!((dropped, &kept), (want, &old));
+        // One bad triangle at the very end of a long clean list.
+        let good = tris.iter().position(|p| !is_degenerate(*p)).unwrap();
+        let bad = tris.iter().position(|p| is_degenerate(*p)).unwrap();
+        let mut clean = vec![indices[good]; 100_000];
+        clean.push(indices[bad]);
+        assert_eq!(drop_degenerate(&positions, &mut clean), 1);
+        assert_eq!(clean.len(), 100_000);
+    }
 
     #[test]
     fn zero_faces_is_an_error() {

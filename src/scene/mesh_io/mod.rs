@@ -5,7 +5,10 @@
 //! once. On the ascii Stanford bunny it takes about 6 ms where `ply-rs-bw`
 //! takes about 160 ms (release; the cross-check test prints both), and it
 //! reports errors with the line (ascii) or the record (binary) where they
-//! happen.
+//! happen. Large ascii PLY bodies and OBJ files are read in parallel
+//! chunks cut at line ends (`ply::ascii`, `obj_chunks`), with
+//! the serial reader deciding whatever a chunk cannot: the mesh and every
+//! error are the serial reader's.
 //!
 //! Polygons are fan-triangulated. Elements and properties the renderer does
 //! not use (normals, colours, confidence, ...) are skipped, and so are
@@ -16,9 +19,11 @@
 //! than the largest body its header's counts allow.
 
 mod checks;
+mod chunks;
 mod fail;
 mod gzip;
 mod obj;
+mod obj_chunks;
 mod obj_scan;
 mod ply;
 #[cfg(test)]

@@ -2,7 +2,9 @@
 //! the errors `tobj` reports without a line located by [`scan_obj`].
 
 use super::checks::{check_finite, drop_degenerate, dropped_note, no_faces, summarize};
+use super::chunks::CHUNK_BYTES;
 use super::fail::{fail, fail_at, Fail};
+use super::obj_chunks::parse_obj_chunks;
 use super::obj_scan::scan_obj;
 use super::Noted;
 use crate::echo::echo;
@@ -10,7 +12,17 @@ use crate::geometry::Mesh;
 use crate::location::line_column;
 use crate::math::{Vec2, Vec3};
 
+/// Reads an OBJ file: in parallel chunks ([`parse_obj_chunks`]) when its
+/// statements allow, else serially.
 pub(super) fn parse_obj(data: &[u8]) -> Result<Noted, Fail> {
+    match parse_obj_chunks(data, CHUNK_BYTES) {
+        Some(noted) => Ok(noted),
+        None => parse_obj_serial(data),
+    }
+}
+
+/// Reads an OBJ file through [`scan_obj`] and `tobj`, serially.
+fn parse_obj_serial(data: &[u8]) -> Result<Noted, Fail> {
     let text = std::str::from_utf8(data).map_err(|e| {
         let (line, column) = line_column(data, e.valid_up_to());
         fail_at(line, column, "the file is not UTF-8 text")
@@ -126,8 +138,101 @@ fn check_all_finite(text: &str, mesh: &Mesh) -> Result<(), Fail> {
 
 #[cfg(test)]
 mod tests {
+    use super::{parse_obj_chunks, parse_obj_serial};
     use crate::math::{Vec2, Vec3};
-    use crate::scene::mesh_io::test_support::load_str;
+    use crate::scene::mesh_io::test_support::{assets, load_str};
+
+    /// The chunked reader, where it decides, gives the serial reader's mesh
+    /// and notes, with chunks cut everywhere; returns whether it decided
+    /// at every cut.
+    fn same_as_serial(text: &[u8]) -> bool {
+        let want = format!("{:?}", parse_obj_serial(text).map_err(|f| f.msg));
+        let mut decided = true;
+        for chunk in 1..text.len().min(400) + 2 {
+            match parse_obj_chunks(text, chunk) {
+                Some(got) => assert_eq!(
+                    format!("{:?}", Ok::<_, String>(got)),
+                    want,
+                    "{:?}, chunks of {chunk}",
+                    String::from_utf8_lossy(text)
+                ),
+                None => decided = false,
+            }
+        }
+        decided
+    }
+
+    #[test]
+    fn chunks_read_as_tobj() {
+        let decided = [
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            "v 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3",
+            "# é comment\n\n  v 0 0 0 \nv\t1 0 0\nv 0 1 0\nv 1 1 0\nf 1 2 3 4\nf -4 -2 -1\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nv 2 1 0\nf 1 2 3 4 5\ns 1\nf 5 4 3\n",
+            "mtllib a.mtl\no a\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+             vt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nusemtl m\nf 1/1 2/2 3/3 4/4\n\
+             o b\ng c\nv 0 0 1\nv 1 0 1\nv 1 1 1\nvt 0.5 0.5 0\nf -3/1 -2/2 -1/5\nf 1/1 2/2 3/3\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nvn 0 0 -1\nvt 0 0\n\
+             f 1//1 2//1 3//2\nf 1/1/1 2//2 3/1/1\ng\nf 1 2 3\nf 1//1 2//1 3//1\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 2 0\nf 1 2 3\nf 1 2 4\nf 1 3 4\n",
+            "g x\ng y\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no\nf 3 2 1\no z\n",
+        ];
+        for t in decided {
+            assert!(same_as_serial(t.as_bytes()), "{t:?}");
+        }
+        let serial = [
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",
+            "v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n",
+            "v 0 0 0\nv 1 0 nan\nv 0 1 0\nf 1 2 3\n",
+            "v 0 0 0 1\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl\nf 1 2 3\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf -4 1 2\n",
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 1 x 0\nf 1 2 3\n",
+            "v 0 0 0\nv\u{a0}1 0 0\nv 0 1 0\nf 1 2 3\n",
+            "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n",
+            "v 0 0 0\n",
+        ];
+        for t in serial {
+            same_as_serial(t.as_bytes());
+        }
+        // Many keywords, and invalid UTF-8.
+        let mut many = String::from("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+        for k in 0..40 {
+            many.push_str(&format!("k{k} x\nk{} y\n", k / 2));
+        }
+        same_as_serial(many.as_bytes());
+        same_as_serial(b"v 0 0 0\nv 1 0 0\nv 0 1 0\n# \xff\nf 1 2 3\n");
+    }
+
+    /// Every OBJ asset, in chunks of 4 KiB and of 64 KiB.
+    #[test]
+    fn assets_read_in_chunks_as_tobj() {
+        for file in [
+            "stanford/bunny/stanford-bunny.obj",
+            "stanford/armadillo/armadillo.obj",
+            "spot/spot_triangulated.obj",
+            "spot/spot_quadrangulated.obj",
+            "spot/spot_control_mesh.obj",
+            "teapot/teapot.obj",
+            "cornell-box/CornellBox-Original.obj",
+        ] {
+            let path = assets().join(file);
+            let Ok(data) = std::fs::read(&path) else {
+                eprintln!("skipping {}: not present", path.display());
+                continue;
+            };
+            let want = format!("{:?}", parse_obj_serial(&data).map_err(|f| f.msg));
+            for chunk in [4096, 65536] {
+                let got = parse_obj_chunks(&data, chunk).expect(file);
+                assert_eq!(format!("{:?}", Ok::<_, String>(got)), want, "{file}");
+            }
+        }
+    }
 
     #[test]
     fn obj_with_uvs_merged_across_objects() {

@@ -1,15 +1,28 @@
 //! The body of an ascii PLY: whitespace-separated values, record after
 //! record, with errors at their line and column.
+//!
+//! A large body is read in parallel chunks cut at line ends, on the
+//! assumption that every line holds one record, as PLY writers write them:
+//! a chunk's first record is then the number of lines before it. A chunk
+//! that finds the assumption broken (a record over two lines, two on one,
+//! a blank line among them) or any error it cannot be sure the serial read
+//! would meet first gives up, and the whole body is read serially, so the
+//! mesh and every error are the serial read's. An error in a value (a bad
+//! number, an index out of range, a face of two vertices) at a line where
+//! every line before held one record is the serial read's error at the
+//! same line and column, and is reported from the chunk.
 
 use super::builder::Builder;
 use super::header::{Element, Kind, Property};
 use super::numbers::{parse_float, parse_int};
 use super::plan::Role;
 use super::trailing;
+use crate::scene::mesh_io::chunks::{line_chunks, lines_before, CHUNK_BYTES};
 use crate::scene::mesh_io::fail::{fail_at, short, show, Fail};
 
-/// Whitespace-separated tokens with line numbers.
-struct Tokens<'a> {
+/// Whitespace-separated tokens with line numbers; with `LINES`, the tokens
+/// of one line at a time: a `\n` ends them as the end of the data does.
+struct Tokens<'a, const LINES: bool> {
     data: &'a [u8],
     pos: usize,
     line: usize,
@@ -17,23 +30,40 @@ struct Tokens<'a> {
     line_start: usize,
     /// Offset of the last token (of the end, once there are no more).
     start: usize,
+    /// Whether `next` found no more tokens (with `LINES`: on this line).
+    ended: bool,
 }
 
-impl<'a> Tokens<'a> {
+impl<'a, const LINES: bool> Tokens<'a, LINES> {
+    fn new(data: &'a [u8], line: usize) -> Self {
+        Tokens {
+            data,
+            pos: 0,
+            line,
+            line_start: 0,
+            start: 0,
+            ended: false,
+        }
+    }
+
     #[inline]
     fn next(&mut self) -> Option<&'a [u8]> {
         let d = self.data;
         let mut i = self.pos;
         while i < d.len() && d[i].is_ascii_whitespace() {
             if d[i] == b'\n' {
+                if LINES {
+                    break;
+                }
                 self.line += 1;
                 self.line_start = i + 1;
             }
             i += 1;
         }
         self.start = i;
-        if i == d.len() {
+        if i == d.len() || LINES && d[i] == b'\n' {
             self.pos = i;
+            self.ended = true;
             return None;
         }
         while i < d.len() && !d[i].is_ascii_whitespace() {
@@ -56,7 +86,7 @@ impl<'a> Tokens<'a> {
 }
 
 /// Reads the ascii body `data`, whose first line is line `first_line` of
-/// the file.
+/// the file: in parallel chunks when it is large.
 pub(super) fn ascii_body(
     data: &[u8],
     first_line: usize,
@@ -64,13 +94,35 @@ pub(super) fn ascii_body(
     roles: &[Vec<Role>],
     out: &mut Builder,
 ) -> Result<(), Fail> {
-    let mut t = Tokens {
-        data,
-        pos: 0,
-        line: first_line,
-        line_start: 0,
-        start: 0,
-    };
+    chunked_body(data, first_line, elements, roles, out, CHUNK_BYTES)
+}
+
+/// [`ascii_body`] with chunks of about `chunk_bytes`.
+fn chunked_body(
+    data: &[u8],
+    first_line: usize,
+    elements: &[Element],
+    roles: &[Vec<Role>],
+    out: &mut Builder,
+    chunk_bytes: usize,
+) -> Result<(), Fail> {
+    if data.len() > chunk_bytes {
+        if let Some(r) = parallel_body(data, first_line, elements, roles, out, chunk_bytes) {
+            return r;
+        }
+    }
+    serial_body(data, first_line, elements, roles, out)
+}
+
+/// Reads the ascii body `data` token after token, as one stream.
+fn serial_body(
+    data: &[u8],
+    first_line: usize,
+    elements: &[Element],
+    roles: &[Vec<Role>],
+    out: &mut Builder,
+) -> Result<(), Fail> {
+    let mut t = Tokens::<false>::new(data, first_line);
     for (el, roles) in elements.iter().zip(roles) {
         // Records without properties take no text: a count of 1e19 (found by
         // fuzzing) would otherwise loop over nothing for ever.
@@ -89,9 +141,170 @@ pub(super) fn ascii_body(
     Ok(())
 }
 
+/// What a chunk read.
+enum Chunk {
+    Read(Builder),
+    /// The serial read's error, at a line after lines of one record each.
+    Failed(Fail),
+    /// Not one record per line, or an end the serial read must judge.
+    Irregular,
+}
+
+/// The elements whose records take text, in order: (element, its index,
+/// the number of records before it).
+struct Layout<'e> {
+    elements: Vec<(&'e Element, usize, usize)>,
+    /// Records in all, saturated.
+    total: usize,
+    /// The `vertex` element's place in `elements`, if it has records.
+    vertex: Option<usize>,
+}
+
+impl<'e> Layout<'e> {
+    fn new(elements: &'e [Element], roles: &[Vec<Role>]) -> Self {
+        let (mut list, mut total, mut vertex) = (Vec::new(), 0usize, None);
+        for (i, (el, roles)) in elements.iter().zip(roles).enumerate() {
+            if el.props.is_empty() || el.count == 0 {
+                continue;
+            }
+            if roles.contains(&Role::Value(0)) {
+                vertex = Some(list.len());
+            }
+            list.push((el, i, total));
+            total = total.saturating_add(el.count);
+        }
+        Layout {
+            elements: list,
+            total,
+            vertex,
+        }
+    }
+
+    /// The place in `elements` of the element holding record `o` (< total).
+    fn element_of(&self, o: usize) -> usize {
+        self.elements.partition_point(|&(_, _, before)| before <= o) - 1
+    }
+
+    /// How many vertex records come before record `o`.
+    fn vertices_before(&self, o: usize) -> usize {
+        self.vertex.map_or(0, |k| {
+            let (el, _, before) = self.elements[k];
+            o.saturating_sub(before).min(el.count)
+        })
+    }
+}
+
+/// Reads `data` in parallel chunks of one record per line, or `None` when
+/// the serial read must decide.
+fn parallel_body(
+    data: &[u8],
+    first_line: usize,
+    elements: &[Element],
+    roles: &[Vec<Role>],
+    out: &mut Builder,
+    chunk_bytes: usize,
+) -> Option<Result<(), Fail>> {
+    use rayon::prelude::*;
+    let layout = Layout::new(elements, roles);
+    let chunks = line_chunks(data, chunk_bytes);
+    let before = lines_before(data, &chunks);
+    let lines = before.last().copied().unwrap_or(0)
+        + super::super::chunks::newlines(&data[chunks.last()?.clone()])
+        + (data.last() != Some(&b'\n')) as usize;
+    if lines < layout.total {
+        // The file ends early (or holds records over several lines).
+        return None;
+    }
+    let read: Vec<Chunk> = chunks
+        .par_iter()
+        .zip(&before)
+        .map(|(range, &o)| read_chunk(&data[range.clone()], first_line + o, o, &layout, roles, out))
+        .collect();
+    let mut parts = Vec::with_capacity(read.len());
+    for c in read {
+        match c {
+            Chunk::Read(b) => parts.push(b),
+            Chunk::Failed(f) => return Some(Err(f)),
+            Chunk::Irregular => return None,
+        }
+    }
+    for part in parts {
+        out.append(part);
+    }
+    Some(Ok(()))
+}
+
+/// Reads the lines of `data`, a chunk whose first line is line `line` of
+/// the file and holds record `first` (counting the records of all elements
+/// with text); `out` gives the counts and what to read.
+fn read_chunk(
+    data: &[u8],
+    line: usize,
+    first: usize,
+    layout: &Layout,
+    roles: &[Vec<Role>],
+    out: &Builder,
+) -> Chunk {
+    let mut t = Tokens::<true>::new(data, line);
+    let lines = super::super::chunks::newlines(data) + (data.last() != Some(&b'\n')) as usize;
+    let ours = |o: usize| o.min(layout.total);
+    let (first_vertex, end_vertex) = (
+        layout.vertices_before(first),
+        layout.vertices_before(ours(first + lines)),
+    );
+    let vertices = end_vertex - first_vertex;
+    let mut part = out.part(first_vertex, vertices, lines - vertices.min(lines));
+    let mut k = match first < layout.total {
+        true => layout.element_of(first),
+        false => layout.elements.len(),
+    };
+    let mut o = first;
+    while t.pos < data.len() {
+        if k == layout.elements.len() {
+            // After the last record: only blank lines, else the serial read
+            // reports the data after the declared elements.
+            if t.next().is_some() {
+                return Chunk::Irregular;
+            }
+        } else {
+            let (el, i, before) = layout.elements[k];
+            let r = o - before;
+            let roles = &roles[i];
+            let is_vertex = Some(k) == layout.vertex;
+            while t.pos < data.len() && data[t.pos] != b'\n' && data[t.pos].is_ascii_whitespace() {
+                t.pos += 1;
+            }
+            if t.pos == data.len() || data[t.pos] == b'\n' {
+                // A blank line among the records.
+                return Chunk::Irregular;
+            }
+            if let Err(f) = record(&mut t, el, roles, r, is_vertex, &mut part) {
+                return match t.ended {
+                    true => Chunk::Irregular,
+                    false => Chunk::Failed(f),
+                };
+            }
+            if t.next().is_some() {
+                // More on the line than one record.
+                return Chunk::Irregular;
+            }
+            o += 1;
+            if r + 1 == el.count {
+                k += 1;
+            }
+        }
+        // At the `\n` (or the end): on to the next line.
+        t.pos += 1;
+        t.line += 1;
+        t.line_start = t.pos;
+        t.ended = false;
+    }
+    Chunk::Read(part)
+}
+
 /// Reads record `r` of `el`, a vertex when `is_vertex`.
-fn record(
-    t: &mut Tokens,
+fn record<const LINES: bool>(
+    t: &mut Tokens<LINES>,
     el: &Element,
     roles: &[Role],
     r: usize,
@@ -126,8 +339,8 @@ fn record(
 
 /// Reads the list `prop` of record `r` of `el`: a face's vertex indices
 /// into `out`, or skipped.
-fn list(
-    t: &mut Tokens,
+fn list<const LINES: bool>(
+    t: &mut Tokens<LINES>,
     el: &Element,
     prop: &Property,
     role: Role,
@@ -153,7 +366,12 @@ fn list(
 
 /// The next token, which must be there: a value of `prop` in record `r` of
 /// `el`.
-fn word<'a>(t: &mut Tokens<'a>, el: &Element, prop: &Property, r: usize) -> Result<&'a [u8], Fail> {
+fn word<'a, const LINES: bool>(
+    t: &mut Tokens<'a, LINES>,
+    el: &Element,
+    prop: &Property,
+    r: usize,
+) -> Result<&'a [u8], Fail> {
     t.next().ok_or_else(|| {
         t.fail(format!(
             "file ends early: {} {r} of {}, property `{}` is missing",
@@ -165,7 +383,13 @@ fn word<'a>(t: &mut Tokens<'a>, el: &Element, prop: &Property, r: usize) -> Resu
 }
 
 /// The failure of token `w` of `prop`, which is not `what`.
-fn expected(t: &Tokens, el: &Element, prop: &Property, what: &str, w: &[u8]) -> Fail {
+fn expected<const LINES: bool>(
+    t: &Tokens<LINES>,
+    el: &Element,
+    prop: &Property,
+    what: &str,
+    w: &[u8],
+) -> Fail {
     t.fail(format!(
         "{} property `{}`: expected {what}, found `{}`",
         short(&el.name),
@@ -176,7 +400,126 @@ fn expected(t: &Tokens, el: &Element, prop: &Property, what: &str, w: &[u8]) -> 
 
 #[cfg(test)]
 mod tests {
+    use super::super::builder::Builder;
+    use super::super::{parse_header, plan::plan};
+    use super::{chunked_body, parallel_body, serial_body};
     use crate::scene::mesh_io::test_support::{check_example, err, load_str, ply, ASCII};
+
+    /// What reading `text`'s body gives, serially or in chunks of about
+    /// `chunk` bytes (`None`), as text to compare.
+    fn read(text: &str, chunk: Option<usize>) -> String {
+        let data = text.as_bytes();
+        let h = parse_header(data).unwrap();
+        let p = plan(&h.elements, h.body_line - 1).unwrap();
+        let body = &data[h.body..];
+        let (nv, nf) = (h.elements[p.vertex].count, h.elements[p.face].count);
+        let mut out = Builder::new(nv, nf, p.has_uv, body.len());
+        let r = match chunk {
+            None => serial_body(body, h.body_line, &h.elements, &p.roles, &mut out),
+            Some(c) => chunked_body(body, h.body_line, &h.elements, &p.roles, &mut out, c),
+        };
+        match r {
+            Ok(()) => format!("{:?} {:?} {:?}", out.positions, out.uvs, out.indices),
+            Err(f) => format!("{f:?}"),
+        }
+    }
+
+    /// Whether the parallel read of `text` in chunks of `chunk` bytes
+    /// decides by itself, without the serial read.
+    fn parallel_decides(text: &str, chunk: usize) -> bool {
+        let data = text.as_bytes();
+        let h = parse_header(data).unwrap();
+        let p = plan(&h.elements, h.body_line - 1).unwrap();
+        let body = &data[h.body..];
+        let (nv, nf) = (h.elements[p.vertex].count, h.elements[p.face].count);
+        let mut out = Builder::new(nv, nf, p.has_uv, body.len());
+        parallel_body(body, h.body_line, &h.elements, &p.roles, &mut out, chunk).is_some()
+    }
+
+    /// Chunks cut everywhere (mid-line, at CRLF, in blank and trailing
+    /// lines) read as the serial read does: the same mesh or the same
+    /// error at the same line and column.
+    #[test]
+    fn chunks_read_as_the_serial_read() {
+        let bodies = [
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+            "0 0 0\r\n1 0 0\r\n0 1 0\r\n3 0 1 2\r\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1 2",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n\n \r\n\n",
+            "  0 0 0  \n\t1 0 0\n0 1 0 \n 3 0 1 2 \n",
+            "0 0 0\n\n1 0 0\n0 1 0\n3 0 1 2\n",
+            "0 0\n0\n1 0 0\n0 1 0\n3 0 1 2\n",
+            "0 0 0 1 0 0\n0 1 0\n3 0 1 2\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1\n2\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n1\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1 2 7\n",
+            "0 0 0\n1 abc 0\n0 1 0\n3 0 1 2\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1 x\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n",
+            "0 0 0\n1 nan 0\n0 1 0\n3 0 1 2\n",
+            "0 0 0\n1 0 0\n0 1 inf\n3 0 1 2\n",
+            "0 0 0\n1 0 0\n0 1 0\n3 0 1",
+            "0 0 0\n1 0 0\n0 1 0\n2 0 1\n",
+            "0 0 0\n1 0 0\n0 1 0\n-1 0 1\n",
+            "0 0 0\n1 0 0\n0 1 0\n9 0 1 2\n",
+            "0 0 0\n1 0 abc 7\n0 1 0\n3 0 1 2\n",
+            "0 0 0\n1 0\n",
+            "0 0 0\r1 0 0\r0 1 0\r3 0 1 2\r",
+            "",
+        ];
+        let mut texts: Vec<String> = bodies.iter().map(|b| ply(b)).collect();
+        texts.push(ASCII.to_string());
+        texts.push(ASCII.replace("0 1 -2 0 0 1\r\n", "0 1 -2 0 0 x\r\n"));
+        texts.push(ASCII.replace("2 1 2\r\n", "2 1 2\r\n3\r\n"));
+        // The regular ones (and the value errors) never need the serial read.
+        for k in [0, 1, 2, 3, 4, 11, 12, 13, 14, 15, 16, 18, 19] {
+            for chunk in 1..20 {
+                assert!(parallel_decides(&texts[k], chunk), "{:?}", texts[k]);
+            }
+        }
+        assert!(parallel_decides(ASCII, 30));
+        for text in &texts {
+            let want = read(text, None);
+            for chunk in 1..text.len() + 2 {
+                assert_eq!(read(text, Some(chunk)), want, "{text:?}, chunks of {chunk}");
+            }
+        }
+    }
+
+    /// A body large enough for the real chunk size: the same mesh as the
+    /// serial read, and an error far into it at its own line.
+    #[test]
+    fn large_body_in_chunks() {
+        let n = 100_000;
+        let mut body = String::new();
+        for i in 0..n {
+            body.push_str(&format!("{} {}.5 -{}.25\n", i % 97, i % 89, i % 83));
+        }
+        for i in 0..n - 2 {
+            body.push_str(&format!("3 {} {} {}\n", i, i + 1, i + 2));
+        }
+        let text = |body: &str| {
+            ply(body)
+                .replace("vertex 3", &format!("vertex {n}"))
+                .replace("face 1", &format!("face {}", n - 2))
+        };
+        let good = text(&body);
+        assert!(good.len() > 2 * super::CHUNK_BYTES);
+        let serial = read(&good, None);
+        assert_eq!(read(&good, Some(super::CHUNK_BYTES)), serial);
+        assert!(serial.len() > 1000);
+        // Line 10 is the first vertex: face 40000 is on line
+        // 10 + 100000 + 40000.
+        let bad = good.replace("\n3 40000 40001 40002\n", "\n3 40000 40001 4000x\n");
+        let want = "Text(140010, 15)";
+        assert!(read(&bad, None).contains(want), "{}", read(&bad, None));
+        assert_eq!(read(&bad, Some(super::CHUNK_BYTES)), read(&bad, None));
+        assert!(parallel_decides(&good, super::CHUNK_BYTES));
+        assert!(parallel_decides(&bad, super::CHUNK_BYTES));
+        let e = err("big.ply", bad.as_bytes());
+        assert!(e.starts_with(":140010:15: face property"), "{e}");
+    }
 
     #[test]
     fn ascii_ply_with_skipped_lists_and_quads() {

@@ -9,6 +9,9 @@ pub(super) struct Builder {
     pub(super) indices: Vec<[u32; 3]>,
     nv: u32,
     poly: Vec<u32>,
+    /// The number of the first vertex this builder holds: 0, or where a
+    /// chunk of the body starts.
+    base: usize,
 }
 
 impl Builder {
@@ -22,13 +25,38 @@ impl Builder {
             indices: Vec::with_capacity(nf.min(body_len / 4)),
             nv: nv as u32,
             poly: Vec::new(),
+            base: 0,
         }
+    }
+
+    /// A builder for a chunk of the body, whose first vertex (if any) is
+    /// vertex `base`, with room for `vertices` vertices and `faces`
+    /// triangles; the same counts to check indices against.
+    pub(super) fn part(&self, base: usize, vertices: usize, faces: usize) -> Builder {
+        Builder {
+            positions: Vec::with_capacity(vertices),
+            uvs: self.uvs.as_ref().map(|_| Vec::with_capacity(vertices)),
+            indices: Vec::with_capacity(faces),
+            nv: self.nv,
+            poly: Vec::new(),
+            base,
+        }
+    }
+
+    /// Appends what `part`, the builder of the next chunk, read.
+    pub(super) fn append(&mut self, part: Builder) {
+        self.positions.extend_from_slice(&part.positions);
+        if let (Some(uvs), Some(more)) = (&mut self.uvs, &part.uvs) {
+            uvs.extend_from_slice(more);
+        }
+        self.indices.extend_from_slice(&part.indices);
     }
 
     pub(super) fn vertex(&mut self, v: [f32; 5]) -> Result<(), String> {
         let p = Vec3::new(v[0], v[1], v[2]);
         let uv = Vec2::new(v[3], v[4]);
-        check_finite(p, self.uvs.is_some().then_some(uv), self.positions.len())?;
+        let n = self.base + self.positions.len();
+        check_finite(p, self.uvs.is_some().then_some(uv), n)?;
         self.positions.push(p);
         if let Some(uvs) = &mut self.uvs {
             uvs.push(uv);

@@ -9,6 +9,7 @@ mod numbers;
 mod plan;
 
 pub(super) use header::{parse_header, Format, Header, Kind, Ty};
+pub(super) use numbers::parse_float;
 
 use super::checks::{drop_degenerate, dropped_note, no_faces, summarize};
 use super::fail::{fail_at, fail_byte, short, Fail};

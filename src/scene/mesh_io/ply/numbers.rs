@@ -84,7 +84,7 @@ fn fast_float(tok: &[u8], ty: Ty) -> Option<f32> {
     Some(if neg { -v } else { v })
 }
 
-pub(super) fn parse_float(tok: &[u8], ty: Ty) -> Option<f32> {
+pub(in crate::scene::mesh_io) fn parse_float(tok: &[u8], ty: Ty) -> Option<f32> {
     if let Some(v) = fast_float(tok, ty) {
         return Some(v);
     }
