@@ -7,6 +7,7 @@
 //! (as low-discrepancy samples give).
 
 use super::{Image, ImageError};
+use crate::render::adaptive::RELATIVE_FLOOR;
 use std::fmt;
 
 /// How two images with per-pixel standard errors differ, in those errors.
@@ -19,6 +20,13 @@ pub struct NoiseComparison {
     /// Those whose difference exceeds `k` combined standard errors (a
     /// channel with no error at all counts when the values differ).
     pub beyond: usize,
+    /// The RMS of the differences over the RMS of the combined standard
+    /// errors: about 1 where the errors are honest, above 1 where they
+    /// understate the difference.
+    pub rms_ratio: f64,
+    /// Per pixel, the worst channel's `|a - b| / max(b, 0.1)`: its median
+    /// and 90th percentile.
+    pub relative_error_quantiles: (f64, f64),
 }
 
 impl NoiseComparison {
@@ -37,12 +45,17 @@ impl fmt::Display for NoiseComparison {
     fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
         write!(
             f,
-            "beyond {} combined standard errors: {} of {} pixel channels ({:.3}%; noise alone: {:.3}%)",
+            "beyond {} combined standard errors: {} of {} pixel channels ({:.3}%; noise alone: {:.3}%)\n\
+             RMS difference / RMS combined standard error: {:.3}\n\
+             per-pixel relative error |a - b| / max(b, 0.1), worst channel: median {:.4}, 90th percentile {:.4}",
             self.k,
             self.beyond,
             self.channels,
             100.0 * self.fraction(),
-            100.0 * self.expected_fraction()
+            100.0 * self.expected_fraction(),
+            self.rms_ratio,
+            self.relative_error_quantiles.0,
+            self.relative_error_quantiles.1
         )
     }
 }
@@ -61,22 +74,40 @@ pub fn compare_in_noise(
             b_height: b.height,
         });
     }
-    let mut beyond = 0;
+    let (mut beyond, mut diff_sq, mut err_sq) = (0, 0.0, 0.0);
+    let mut relative = Vec::with_capacity(a.pixels.len());
     for i in 0..a.pixels.len() {
+        let mut worst: f64 = 0.0;
         for c in 0..3 {
-            let diff = (a.pixels[i][c] as f64 - b.pixels[i][c] as f64).abs();
+            let (va, vb) = (a.pixels[i][c] as f64, b.pixels[i][c] as f64);
+            let diff = (va - vb).abs();
             let (ea, eb) = (a_err.pixels[i][c] as f64, b_err.pixels[i][c] as f64);
-            let combined = (ea * ea + eb * eb).sqrt();
-            if diff > k * combined {
+            let combined_sq = ea * ea + eb * eb;
+            if diff > k * combined_sq.sqrt() {
                 beyond += 1;
             }
+            diff_sq += diff * diff;
+            err_sq += combined_sq;
+            worst = worst.max(diff / vb.max(RELATIVE_FLOOR));
         }
+        relative.push(worst);
     }
     Ok(NoiseComparison {
         k,
         channels: a.pixels.len() * 3,
         beyond,
+        rms_ratio: (diff_sq / err_sq).sqrt(),
+        relative_error_quantiles: (quantile(&mut relative, 0.5), quantile(&mut relative, 0.9)),
     })
+}
+
+/// The `q` quantile of `values` (the value at rank ⌊q·(n-1)⌋); 0 for none.
+fn quantile(values: &mut [f64], q: f64) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let rank = (q * (values.len() - 1) as f64) as usize;
+    *values.select_nth_unstable_by(rank, f64::total_cmp).1
 }
 
 /// The complementary error function, to about 1e-7 relative (Numerical
@@ -131,6 +162,8 @@ mod tests {
             k: 3.0,
             channels: 1,
             beyond: 0,
+            rms_ratio: 1.0,
+            relative_error_quantiles: (0.0, 0.0),
         };
         assert!((at_three.expected_fraction() - 0.002_699_8).abs() < 1e-6);
     }
@@ -150,6 +183,13 @@ mod tests {
         );
         let z = compare_in_noise((&a, &err), (&b, &err), 2.0).unwrap();
         assert_eq!(z.beyond, 6, "0.4 and 0.6 pass 0.28");
+        // Squared differences 3·(0.16 + 0.36) over 9 channels of 0.02.
+        let rms = (3.0f64 * (0.16 + 0.36) / (9.0 * 0.02)).sqrt();
+        assert!((z.rms_ratio - rms).abs() < 1e-6, "{}", z.rms_ratio);
+        // Per pixel: 0, 0.4, 0.6 and 0 relative to 1.4, 1.6 and 2.
+        let (median, p90) = z.relative_error_quantiles;
+        assert_eq!(median, 0.0);
+        assert!((p90 - 0.4 / 1.4).abs() < 1e-6, "{p90}");
         let other = image(&[1.0, 1.0, 1.0, 2.5]);
         let z = compare_in_noise((&a, &err), (&other, &err), 100.0).unwrap();
         assert_eq!(z.beyond, 3, "a difference without any error always counts");
