@@ -169,19 +169,8 @@ impl Film {
 
     /// Mean radiance per pixel.
     pub fn image(&self) -> Image {
-        let pixels = self
-            .sum
-            .iter()
-            .enumerate()
-            .map(|(i, s)| {
-                let n = self.count(i);
-                let inv = if n == 0 { 0.0 } else { 1.0 / n as f64 };
-                Vec3::new(
-                    (s[0] * inv) as f32,
-                    (s[1] * inv) as f32,
-                    (s[2] * inv) as f32,
-                )
-            })
+        let pixels = (0..self.sum.len())
+            .map(|i| Vec3::from(self.pixel_mean(i).map(|m| m as f32)))
             .collect();
         Image::new(self.width, self.height, pixels)
     }
