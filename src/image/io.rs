@@ -48,6 +48,7 @@
 //!   never a partial file under the requested name.
 //! - Alpha channels are ignored; grey images are read as grey RGB.
 
+pub use super::error::ImageError;
 use super::tonemap::{ToneMap, ToneMapParams};
 use super::Image;
 use crate::location::line_column;
@@ -56,63 +57,8 @@ use image::{ExtendedColorType, ImageEncoder, ImageFormat};
 use std::borrow::Cow;
 use std::fs::File;
 use std::io::{BufWriter, Write};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
-
-/// Everything that can go wrong with an image. Every variant that concerns
-/// a file names it.
-#[derive(Debug, thiserror::Error)]
-pub enum ImageError {
-    #[error("{}: {source}", path.display())]
-    Io {
-        path: PathBuf,
-        source: std::io::Error,
-    },
-    /// A located error in a text header or ascii body (PPM).
-    #[error("{}:{line}:{column}: {field}: {message}", path.display())]
-    Parse {
-        path: PathBuf,
-        line: usize,
-        column: usize,
-        field: String,
-        message: String,
-    },
-    /// A located error in binary data (PPM pixels).
-    #[error("{}: byte {offset}: {field}: {message}", path.display())]
-    BinaryParse {
-        path: PathBuf,
-        offset: usize,
-        field: String,
-        message: String,
-    },
-    /// Undecodable or unencodable data.
-    #[error("{}: {message}", path.display())]
-    Format { path: PathBuf, message: String },
-    #[error("{}: {message}; supported: {supported}", path.display())]
-    Unsupported {
-        path: PathBuf,
-        message: String,
-        supported: &'static str,
-    },
-    #[error("{}: pixel ({x}, {y}) {channel} is {value}: {reason}", path.display())]
-    BadValue {
-        path: PathBuf,
-        x: u32,
-        y: u32,
-        channel: &'static str,
-        value: f32,
-        reason: &'static str,
-    },
-    #[error("images differ in size: {a_width}x{a_height} vs {b_width}x{b_height}")]
-    DimensionMismatch {
-        a_width: u32,
-        a_height: u32,
-        b_width: u32,
-        b_height: u32,
-    },
-    #[error("{0}")]
-    InvalidParameter(String),
-}
 
 const CHANNELS: [&str; 3] = ["red", "green", "blue"];
 const READ_FORMATS: &str = "OpenEXR, Radiance HDR, PPM (P2/P3/P5/P6, #MAX= HDR), PNG, JPEG";
@@ -778,6 +724,7 @@ pub(crate) fn write_atomic(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::path::PathBuf;
 
     fn temp_dir(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("luz-image-{}-{name}", std::process::id()));
