@@ -185,7 +185,6 @@ impl Study {
         Ok(image)
     }
 
-    /// The scene as `setting` renders it.
     /// The scene as `setting` renders it: shared unless NEE is varied.
     fn variant(&self, setting: &Setting) -> Arc<Scene> {
         match setting.nee {
