@@ -3,7 +3,7 @@
 //! `a` is the image under test, `b` the reference. All sums run over every
 //! channel value (3 per pixel) in f64.
 
-use super::io::ImageError;
+use super::error::ImageError;
 use super::Image;
 use std::fmt;
 

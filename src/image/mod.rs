@@ -2,12 +2,14 @@
 //! reading and (atomic) writing of EXR, Radiance HDR, PPM (including the
 //! course's `#MAX=` HDR PPM) and PNG/JPEG, and error metrics between images.
 
+mod error;
 pub mod io;
 pub mod metrics;
 pub mod tonemap;
 pub mod zscore;
 
-pub use io::{read, read_texture, write, ImageError, WriteOptions};
+pub use error::ImageError;
+pub use io::{read, read_texture, write, WriteOptions};
 pub use metrics::{compare, Comparison};
 pub use tonemap::{ToneMap, ToneMapParams};
 

@@ -15,7 +15,7 @@
 //! with the power curve `x^(1/gamma)` ([`ToneMapParams::gamma`], 2.2 by
 //! default), an approximation of sRGB.
 
-use super::io::ImageError;
+use super::error::ImageError;
 use super::Image;
 use crate::math::Vec3;
 use std::fmt;
