@@ -175,7 +175,7 @@ impl SobolSample {
             return sobol::to_unit(self.hashed(slot) as u32);
         }
         let h = self.slot_hash(slot);
-        sobol::to_unit(sobol::point_1d(self.reversed, h as u32, (h >> 32) as u32))
+        sobol::point_1d(self.reversed, h as u32, (h >> 32) as u32)
     }
 
     #[inline]
@@ -193,7 +193,7 @@ impl SobolSample {
             y: (h.wrapping_mul(SPREAD) >> 32) as u32,
         };
         let (x, y) = sobol::point_2d(self.reversed, seeds);
-        Vec2::new(sobol::to_unit(x), sobol::to_unit(y))
+        Vec2::new(x, y)
     }
 }
 
