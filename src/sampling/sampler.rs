@@ -169,20 +169,34 @@ impl SobolSample {
         splitmix64(key)
     }
 
-    #[inline]
+    /// Past the covered vertices (rare): out of line, so that the Sobol'
+    /// points can be inlined where the integrator asks for them.
+    #[cold]
+    #[inline(never)]
+    fn hashed_1d(&self, slot: u64) -> f32 {
+        sobol::to_unit(self.hashed(slot) as u32)
+    }
+
+    #[cold]
+    #[inline(never)]
+    fn hashed_2d(&self, slot: u64) -> Vec2 {
+        let h = self.hashed(slot);
+        Vec2::new(sobol::to_unit(h as u32), sobol::to_unit((h >> 32) as u32))
+    }
+
+    #[inline(always)]
     fn get_1d(&self, slot: u64) -> f32 {
         if slot >= SOBOL_SLOTS {
-            return sobol::to_unit(self.hashed(slot) as u32);
+            return self.hashed_1d(slot);
         }
         let h = self.slot_hash(slot);
         sobol::point_1d(self.reversed, h as u32, (h >> 32) as u32)
     }
 
-    #[inline]
+    #[inline(always)]
     fn get_2d(&self, slot: u64) -> Vec2 {
         if slot >= SOBOL_SLOTS {
-            let h = self.hashed(slot);
-            return Vec2::new(sobol::to_unit(h as u32), sobol::to_unit((h >> 32) as u32));
+            return self.hashed_2d(slot);
         }
         let h = self.slot_hash(slot);
         let seeds = Seeds {
