@@ -39,7 +39,8 @@ fn laine_karras(mut v: u32, seed: u32) -> u32 {
 /// `reversed` (reversed once per sample by the caller, not once per
 /// dimension). In the index, bit j is flipped by a function of the bits
 /// above it, so the indices below 2^m go to one aligned block of 2^m.
-#[inline]
+/// `point_2d` never forms it: its table reads the hash's output directly.
+#[cfg(test)]
 fn shuffle(reversed: u32, seed: u32) -> u32 {
     laine_karras(reversed, seed).reverse_bits()
 }
@@ -260,7 +261,9 @@ mod tests {
         assert_eq!(t[3][0x80], 1 | 1 << 32, "index bit 0");
         let mut h = 1u64;
         for k in 0..10_000u32 {
-            h = h.wrapping_mul(0x5851_f42d_4c95_7f2d).wrapping_add(1442695040888963407);
+            h = h
+                .wrapping_mul(0x5851_f42d_4c95_7f2d)
+                .wrapping_add(1442695040888963407);
             let seeds = Seeds {
                 shuffle: (h >> 32) as u32,
                 x: h as u32,
