@@ -9,24 +9,27 @@
 #   tools/instructions_per_sample.sh SCENE [BACKEND] [BINARY]
 #
 # BACKEND: rust (default) or embree. BINARY: default target/release/luz.
+# LUZ_EXTRA_ARGS: more arguments for both renders, split at spaces (for
+# example LUZ_EXTRA_ARGS="--sampler independent").
 # Needs valgrind (apt-get install valgrind); meshes from $LUZ_ASSETS.
 set -euo pipefail
 if [ $# -lt 1 ]; then
-    sed -n '2,10p' "$0" >&2
+    sed -n '2,14p' "$0" >&2
     exit 2
 fi
 scene=$1
 backend=${2:-rust}
 luz=${3:-target/release/luz}
 export LUZ_ASSETS="${LUZ_ASSETS:-$(dirname "$0")/../../shared/assets}"
+read -r -a extra <<<"${LUZ_EXTRA_ARGS:-}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 instructions() {
     valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.out" "$luz" render "$scene" \
         --backend "$backend" --bvh-quality medium --embree-quality medium --threads 1 --spp "$1" --resolution 64x64 --quiet \
-        --checkpoint-every off -o "$work/image.exr" 2>&1 |
+        --checkpoint-every off "${extra[@]}" -o "$work/image.exr" 2>&1 |
         sed -n 's/.*Collected : \([0-9]*\).*/\1/p'
 }
 low=$(instructions 16)
 high=$(instructions 48)
-echo "$scene $backend: $(((high - low) / (32 * 64 * 64))) instructions per sample"
+echo "$scene $backend${LUZ_EXTRA_ARGS:+ $LUZ_EXTRA_ARGS}: $(((high - low) / (32 * 64 * 64))) instructions per sample"

@@ -145,9 +145,17 @@ const SOBOL_SLOTS: u64 = 1 + SOBOL_VERTICES as u64 * PER_VERTEX as u64;
 
 #[inline]
 fn pixel_key(seed: u64, x: u32, y: u32) -> u64 {
+    // One hash of the pixel and the seed's multiple, rather than one of the
+    // pixel and another of that and the seed. Two (seed, pixel) pairs share
+    // a key only where the seeds' multiples differ in the pixel
+    // coordinates' bits alone (0-15 and 32-47 below 65,536 pixels a side):
+    // about one pair of seeds in 2^32.
     let pixel = ((y as u64) << 32) | x as u64;
-    splitmix64(seed ^ splitmix64(pixel))
+    splitmix64(pixel ^ seed.wrapping_mul(SPREAD))
 }
+
+/// Odd constant of `slot_seeds`'s multiply (Pelle Evensen's rrmxmx).
+const MIX: u64 = 0x9fb2_1c65_1e98_df25;
 
 /// Odd constant that spreads slot ids (or sample indices) over 64 bits
 /// before mixing.
@@ -161,6 +169,16 @@ impl SobolSample {
         splitmix64(self.pixel ^ (slot + 1).wrapping_mul(SPREAD))
     }
 
+    /// The seeds of this pixel's Sobol' dimensions `slot`, as `slot_hash`
+    /// but cheaper: the pixel's key is already a full hash, so one multiply
+    /// and one fold are enough to tell its slots apart (the shuffles of two
+    /// slots must not be related, or their points would be correlated).
+    #[inline(always)]
+    fn slot_seeds(&self, slot: u64) -> u64 {
+        let h = (self.pixel ^ (slot + 1).wrapping_mul(SPREAD)).wrapping_mul(MIX);
+        h ^ (h >> 32)
+    }
+
     /// Independent numbers of this sample for `slot`, past the covered
     /// ones.
     #[inline]
@@ -169,22 +187,36 @@ impl SobolSample {
         splitmix64(key)
     }
 
-    #[inline]
-    fn get_1d(&self, slot: u64) -> f32 {
-        if slot >= SOBOL_SLOTS {
-            return sobol::to_unit(self.hashed(slot) as u32);
-        }
-        let h = self.slot_hash(slot);
-        sobol::to_unit(sobol::point_1d(self.reversed, h as u32, (h >> 32) as u32))
+    /// Past the covered vertices (rare): out of line, so that the Sobol'
+    /// points can be inlined where the integrator asks for them.
+    #[cold]
+    #[inline(never)]
+    fn hashed_1d(&self, slot: u64) -> f32 {
+        sobol::to_unit(self.hashed(slot) as u32)
     }
 
-    #[inline]
+    #[cold]
+    #[inline(never)]
+    fn hashed_2d(&self, slot: u64) -> Vec2 {
+        let h = self.hashed(slot);
+        Vec2::new(sobol::to_unit(h as u32), sobol::to_unit((h >> 32) as u32))
+    }
+
+    #[inline(always)]
+    fn get_1d(&self, slot: u64) -> f32 {
+        if slot >= SOBOL_SLOTS {
+            return self.hashed_1d(slot);
+        }
+        let h = self.slot_seeds(slot);
+        sobol::point_1d(self.reversed, h as u32, (h >> 32) as u32)
+    }
+
+    #[inline(always)]
     fn get_2d(&self, slot: u64) -> Vec2 {
         if slot >= SOBOL_SLOTS {
-            let h = self.hashed(slot);
-            return Vec2::new(sobol::to_unit(h as u32), sobol::to_unit((h >> 32) as u32));
+            return self.hashed_2d(slot);
         }
-        let h = self.slot_hash(slot);
+        let h = self.slot_seeds(slot);
         let seeds = Seeds {
             shuffle: h as u32,
             x: (h >> 32) as u32,
@@ -193,7 +225,7 @@ impl SobolSample {
             y: (h.wrapping_mul(SPREAD) >> 32) as u32,
         };
         let (x, y) = sobol::point_2d(self.reversed, seeds);
-        Vec2::new(sobol::to_unit(x), sobol::to_unit(y))
+        Vec2::new(x, y)
     }
 }
 

@@ -39,7 +39,8 @@ fn laine_karras(mut v: u32, seed: u32) -> u32 {
 /// `reversed` (reversed once per sample by the caller, not once per
 /// dimension). In the index, bit j is flipped by a function of the bits
 /// above it, so the indices below 2^m go to one aligned block of 2^m.
-#[inline]
+/// `point_2d` never forms it: its table reads the hash's output directly.
+#[cfg(test)]
 fn shuffle(reversed: u32, seed: u32) -> u32 {
     laine_karras(reversed, seed).reverse_bits()
 }
@@ -82,24 +83,30 @@ const fn generator_columns(degree: usize, a: u32, m: &[u32]) -> [u32; 32] {
 /// m_1 = 1.
 const DIMENSION_1: [u32; 32] = generator_columns(1, 0, &[1]);
 
-/// Dimension 1's matrix times an index, eight index bits at a time, with
-/// the result bit-reversed: the scramble works on reversed values, so the
-/// table saves one reversal per point.
-static DIMENSION_1_BYTES: [[u32; 256]; 4] = byte_tables(&DIMENSION_1);
+/// Both dimensions' matrices times the shuffled index `i`, read from the
+/// bits of `reverse_bits(i)` (what the shuffle's hash puts out) eight at a
+/// time, with the results bit-reversed (what the scrambles' hash takes in):
+/// entry `[k][b]` is what byte `k` of the reversed index contributes,
+/// dimension 0 in the low 32 bits, dimension 1 in the high 32. Dimension
+/// 0's reversed value is `i` itself, so this table is also the reversal
+/// between the two hashes, and both dimensions cost the same four lookups.
+static MATRIX_BYTES: [[u64; 256]; 4] = matrix_bytes(&DIMENSION_1);
 
-const fn byte_tables(columns: &[u32; 32]) -> [[u32; 256]; 4] {
-    let mut t = [[0u32; 256]; 4];
+const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
+    let mut t = [[0u64; 256]; 4];
     let mut byte = 0;
     while byte < 4 {
         let mut b = 0;
         while b < 256 {
-            let mut v = 0u32;
-            let mut i = 0;
-            while i < 8 {
-                if (b >> i) & 1 == 1 {
-                    v ^= columns[8 * byte + i].reverse_bits();
+            let mut v = 0u64;
+            let mut bit = 0;
+            while bit < 8 {
+                if (b >> bit) & 1 == 1 {
+                    // Bit 8 byte + bit of the reversed index is bit q of i.
+                    let q = 31 - (8 * byte + bit);
+                    v ^= (1u64 << q) | ((dimension_1[q].reverse_bits() as u64) << 32);
                 }
-                i += 1;
+                bit += 1;
             }
             t[byte][b] = v;
             b += 1;
@@ -107,6 +114,45 @@ const fn byte_tables(columns: &[u32; 32]) -> [[u32; 256]; 4] {
         byte += 1;
     }
     t
+}
+
+/// Dimensions 0 (low 32 bits) and 1 (high 32 bits) of the shuffled index
+/// whose bits, reversed, are `reversed_index`, each bit-reversed.
+#[inline]
+fn both_reversed(reversed_index: u32) -> u64 {
+    let [b0, b1, b2, b3] = reversed_index.to_le_bytes();
+    let t = &MATRIX_BYTES;
+    t[0][b0 as usize] ^ t[1][b1 as usize] ^ t[2][b2 as usize] ^ t[3][b3 as usize]
+}
+
+/// `UNIT_BYTES[k][b]` is byte `k` of a bit-reversed 32-bit fraction, put
+/// back in order, as an f32: the three low bytes are the fraction's top 24
+/// bits, and their three values have no bit in common, so their sum is
+/// exact and equals `to_unit` of the reversal. Three lookups and two
+/// additions instead of a bit reversal, which x86-64 has no instruction
+/// for.
+static UNIT_BYTES: [[f32; 256]; 3] = unit_bytes();
+
+const fn unit_bytes() -> [[f32; 256]; 3] {
+    let mut t = [[0f32; 256]; 3];
+    let mut byte = 0;
+    while byte < 3 {
+        let mut b = 0;
+        while b < 256 {
+            t[byte][b] = to_unit(((b as u32) << (8 * byte)).reverse_bits());
+            b += 1;
+        }
+        byte += 1;
+    }
+    t
+}
+
+/// `to_unit(reversed.reverse_bits())`.
+#[inline]
+fn unit_of_reversed(reversed: u32) -> f32 {
+    let [b0, b1, b2, _] = reversed.to_le_bytes();
+    let t = &UNIT_BYTES;
+    t[0][b0 as usize] + (t[1][b1 as usize] + t[2][b2 as usize])
 }
 
 /// The per-point seeds of one pair of dimensions: the index shuffle and
@@ -119,30 +165,33 @@ pub struct Seeds {
 }
 
 /// The point of sample index `reversed.reverse_bits()` in the shuffled,
-/// scrambled (0,2)-sequence, as 32-bit fractions.
+/// scrambled (0,2)-sequence, in [0, 1)².
+///
+/// The whole way is in the bit-reversed domain: the shuffle's hash takes
+/// the reversed index and gives the reversed shuffled index, one table
+/// turns that into both dimensions' reversed values, the scrambles' hashes
+/// take those, and the floats are read off the reversed results. No bit is
+/// reversed but the sample index, once per sample by the caller.
 #[inline]
-pub fn point_2d(reversed: u32, seeds: Seeds) -> (u32, u32) {
-    let i = shuffle(reversed, seeds.shuffle);
-    // Dimension 0 is reverse_bits(i); scrambling reverses it back first.
-    let x = laine_karras(i, seeds.x).reverse_bits();
-    let [b0, b1, b2, b3] = i.to_le_bytes();
-    let t = &DIMENSION_1_BYTES;
-    let y_reversed = t[0][b0 as usize] ^ t[1][b1 as usize] ^ t[2][b2 as usize] ^ t[3][b3 as usize];
-    let y = laine_karras(y_reversed, seeds.y).reverse_bits();
-    (x, y)
+pub fn point_2d(reversed: u32, seeds: Seeds) -> (f32, f32) {
+    let both = both_reversed(laine_karras(reversed, seeds.shuffle));
+    let x = laine_karras(both as u32, seeds.x);
+    let y = laine_karras((both >> 32) as u32, seeds.y);
+    (unit_of_reversed(x), unit_of_reversed(y))
 }
 
 /// The point of sample index `reversed.reverse_bits()` in the shuffled,
 /// scrambled van der Corput sequence: a (0,1)-sequence, stratified in every
 /// power-of-two prefix.
 #[inline]
-pub fn point_1d(reversed: u32, shuffle_seed: u32, scramble: u32) -> u32 {
-    laine_karras(shuffle(reversed, shuffle_seed), scramble).reverse_bits()
+pub fn point_1d(reversed: u32, shuffle_seed: u32, scramble: u32) -> f32 {
+    let shuffled = both_reversed(laine_karras(reversed, shuffle_seed)) as u32;
+    unit_of_reversed(laine_karras(shuffled, scramble))
 }
 
 /// A 32-bit fraction as an f32 in [0, 1), rounded down to 24 bits.
 #[inline]
-pub fn to_unit(v: u32) -> f32 {
+pub const fn to_unit(v: u32) -> f32 {
     (v >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
 }
 
@@ -189,13 +238,43 @@ mod tests {
         assert_eq!(DIMENSION_1[31], u32::MAX);
     }
 
+    /// The points as they were computed before the tables: three bit
+    /// reversals per pair, dimension 1 multiplied out bit by bit.
+    fn point_2d_by_reversals(reversed: u32, seeds: Seeds) -> (f32, f32) {
+        let i = shuffle(reversed, seeds.shuffle);
+        let x = laine_karras(i, seeds.x).reverse_bits();
+        let y = laine_karras(dimension_1(i).reverse_bits(), seeds.y).reverse_bits();
+        (to_unit(x), to_unit(y))
+    }
+
     #[test]
-    fn the_byte_tables_multiply_like_the_matrix() {
-        let t = &DIMENSION_1_BYTES;
+    fn the_tables_compute_what_the_reversals_do() {
+        let t = &MATRIX_BYTES;
         for index in [0u32, 1, 2, 3, 255, 256, 0x1234_5678, u32::MAX] {
-            let [b0, b1, b2, b3] = index.to_le_bytes();
-            let v = t[0][b0 as usize] ^ t[1][b1 as usize] ^ t[2][b2 as usize] ^ t[3][b3 as usize];
-            assert_eq!(v.reverse_bits(), dimension_1(index), "{index:#x}");
+            let v = both_reversed(index.reverse_bits());
+            assert_eq!(v as u32, index, "{index:#x}");
+            assert_eq!(((v >> 32) as u32).reverse_bits(), dimension_1(index));
+            for x in [index, index.wrapping_mul(0x9e37_79b9)] {
+                assert_eq!(unit_of_reversed(x), to_unit(x.reverse_bits()), "{x:#x}");
+            }
+        }
+        assert_eq!(t[3][0x80], 1 | 1 << 32, "index bit 0");
+        let mut h = 1u64;
+        for k in 0..10_000u32 {
+            h = h
+                .wrapping_mul(0x5851_f42d_4c95_7f2d)
+                .wrapping_add(1442695040888963407);
+            let seeds = Seeds {
+                shuffle: (h >> 32) as u32,
+                x: h as u32,
+                y: (h >> 16) as u32,
+            };
+            let r = k.wrapping_mul(0x2545_f491).reverse_bits();
+            assert_eq!(point_2d(r, seeds), point_2d_by_reversals(r, seeds));
+            assert_eq!(
+                point_1d(r, seeds.shuffle, seeds.x),
+                point_2d_by_reversals(r, seeds).0
+            );
         }
     }
 
