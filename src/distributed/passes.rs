@@ -72,15 +72,11 @@ pub fn render_passes<E>(
                 let next = range.start as u64 + film.samples;
                 (next < range.end as u64).then_some(film.sum.len() as u64)
             }
-            Some(plan) => {
-                if plan.at_goals() && !options.sampling.decide(film) {
-                    None
-                } else {
-                    let plan = film.plan.as_ref().expect("still adaptive");
-                    let active = plan.count.iter().zip(&plan.goal).filter(|(c, g)| c < g);
-                    Some(active.count() as u64)
-                }
-            }
+            Some(_) => options.sampling.pass_due(film).then(|| {
+                let plan = film.plan.as_ref().expect("an adaptive film keeps its plan");
+                let active = plan.count.iter().zip(&plan.goal).filter(|(c, g)| c < g);
+                active.count() as u64
+            }),
         };
         let Some(pixels_left) = pixels_left else {
             return finish(stats, Outcome::Complete);

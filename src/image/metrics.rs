@@ -7,6 +7,15 @@ use super::error::ImageError;
 use super::Image;
 use std::fmt;
 
+/// The denominator floor of a relative error: radiance below it is judged
+/// by its absolute error, so black pixels neither dominate a relative MSE
+/// nor need endless sampling.
+pub const RELATIVE_FLOOR: f64 = 0.1;
+
+/// `RELATIVE_FLOOR²`, the floor under a squared value in a relative MSE
+/// (pbrt's `1e-2`).
+pub const RELATIVE_MSE_FLOOR: f64 = RELATIVE_FLOOR * RELATIVE_FLOOR;
+
 /// The result of [`compare`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Comparison {
@@ -69,7 +78,7 @@ pub fn compare(a: &Image, b: &Image, abs_tol: f64, rel_tol: f64) -> Result<Compa
             }
             let d = x - y;
             se += d * d;
-            rel += d * d / (y * y + 1e-2);
+            rel += d * d / (y * y + RELATIVE_MSE_FLOOR);
             if d.abs() > max_abs || max_at.is_none() {
                 max_abs = d.abs();
                 let w = a.width.max(1) as usize;

@@ -6,8 +6,8 @@
 //! larger fraction points at a bias, a smaller one at an overstated error
 //! (as low-discrepancy samples give).
 
+use super::metrics::RELATIVE_FLOOR;
 use super::{Image, ImageError};
-use crate::render::adaptive::RELATIVE_FLOOR;
 use std::fmt;
 
 /// How two images with per-pixel standard errors differ, in those errors.

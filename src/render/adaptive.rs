@@ -11,13 +11,22 @@
 //!   noise merely *looks* low in their first samples (a caustic pixel that
 //!   has not yet seen its rare bright paths), which biases both the image
 //!   and the error estimate low; the second decision is made on twice the
-//!   samples, half of them new.
+//!   samples, half of them new. A pixel is judged by the largest error
+//!   in its 3×3 neighbourhood, as in Cycles: a pixel whose own noise is low
+//!   by chance goes on while its neighbours do, so where pixels stop
+//!   depends less on their own luck.
 //! - **Budget** ([`Sampling::Budget`]): `spp × pixels` samples in all. A
 //!   quarter of them go to every pixel alike; then, at half and at all of
 //!   the budget, each pixel's goal is its share of the budget in proportion
 //!   to its per-sample relative standard deviation, the allocation that
 //!   minimises the image's relative MSE, with a floor so that no pixel is
-//!   starved on the strength of a few samples.
+//!   starved on the strength of a few samples. The deviation is averaged
+//!   over the pixel's 3×3 neighbourhood: a pixel's own estimate from a few
+//!   samples is noisy, and goals that follow that noise give fewer samples
+//!   to pixels whose variance happens to look low, which then keep the
+//!   error their estimate hides (on a closed-form test scene the estimated
+//!   relative MSE fell to 0.86× the actual one; averaged, 1.04×, as with
+//!   uniform sampling).
 //!
 //! Decisions happen only when every pixel has reached its goal
 //! ([`PixelPlan::at_goals`]); the render loop moves pixels towards their
@@ -25,6 +34,7 @@
 //! between decisions.
 
 use super::film::{Film, PixelPlan};
+pub use crate::image::metrics::{RELATIVE_FLOOR, RELATIVE_MSE_FLOOR};
 use std::fmt;
 
 /// How a render spreads its samples over the pixels.
@@ -43,10 +53,6 @@ pub enum Sampling {
     /// largest.
     Budget { spp: u32 },
 }
-
-/// The denominator floor of a relative error: radiance below it is judged
-/// by its absolute error, so black pixels need no endless sampling.
-pub const RELATIVE_FLOOR: f64 = 0.1;
 
 /// The share of a budget spent alike on every pixel, and then the shares
 /// after which the goals are decided again.
@@ -86,6 +92,18 @@ impl Sampling {
         }
     }
 
+    /// Whether an adaptive `film` has a pass to render: some pixel short of
+    /// its goal, once the decision due when every pixel has reached its
+    /// goal is made. A film without a plan has none here; its sample range
+    /// says when it is done.
+    pub fn pass_due(&self, film: &mut Film) -> bool {
+        match &film.plan {
+            None => false,
+            Some(plan) if !plan.at_goals() => true,
+            Some(_) => self.decide(film),
+        }
+    }
+
     /// Makes the decision due on `film` (every pixel at its goal): new goals
     /// for the pixels that go on. Returns whether any pixel goes on.
     pub fn decide(&self, film: &mut Film) -> bool {
@@ -114,12 +132,28 @@ pub fn relative_error(film: &Film, i: usize) -> f64 {
         .fold(0.0, f64::max)
 }
 
+/// The pixels of pixel `i`'s 3×3 neighbourhood on `film`, itself included,
+/// clipped at the image's edges.
+fn neighbourhood(film: &Film, i: usize) -> impl Iterator<Item = usize> {
+    let (width, height) = (film.width as usize, film.height as usize);
+    let (x, y) = (i % width, i / width);
+    let xs = x.saturating_sub(1)..(x + 2).min(width);
+    (y.saturating_sub(1)..(y + 2).min(height))
+        .flat_map(move |y| xs.clone().map(move |x| y * width + x))
+}
+
 fn decide_threshold(film: &mut Film, threshold: f64, max_spp: u32) -> bool {
     let checkpoint = film.samples as u32;
+    let own: Vec<f64> = (0..film.sum.len())
+        .map(|i| relative_error(film, i))
+        .collect();
     let errors: Vec<Option<f64>> = {
         let plan = film.plan.as_ref().expect("an adaptive film has a plan");
         (0..plan.count.len())
-            .map(|i| (plan.count[i] == checkpoint).then(|| relative_error(film, i)))
+            .map(|i| {
+                (plan.count[i] == checkpoint)
+                    .then(|| neighbourhood(film, i).map(|j| own[j]).fold(0.0, f64::max))
+            })
             .collect()
     };
     let next = checkpoint.saturating_mul(2).min(max_spp);
@@ -146,9 +180,8 @@ fn budget_weight(film: &Film, i: usize) -> f64 {
     let n = film.count(i) as f64;
     let mean = film.pixel_mean(i);
     let var = film.pixel_variance_of_mean(i);
-    let floor = RELATIVE_FLOOR * RELATIVE_FLOOR;
     let rel: f64 = (0..3)
-        .map(|c| var[c] * n / (mean[c] * mean[c] + floor))
+        .map(|c| var[c] * n / (mean[c] * mean[c] + RELATIVE_MSE_FLOOR))
         .sum();
     (rel / 3.0).sqrt()
 }
@@ -164,7 +197,13 @@ fn decide_budget(film: &mut Film, spp: u32) -> bool {
     else {
         return false;
     };
-    let mut weights: Vec<f64> = (0..pixels).map(|i| budget_weight(film, i)).collect();
+    let own: Vec<f64> = (0..pixels).map(|i| budget_weight(film, i)).collect();
+    let mut weights: Vec<f64> = (0..pixels)
+        .map(|i| {
+            let (sum, n) = neighbourhood(film, i).fold((0.0, 0), |(s, n), j| (s + own[j], n + 1));
+            sum / n as f64
+        })
+        .collect();
     let mean = weights.iter().sum::<f64>() / pixels as f64;
     let cap = spp.saturating_mul(MAX_SHARE) as f64;
     if mean > 0.0 {

@@ -34,10 +34,11 @@ fn render_to_goals(film: &mut Film, value: impl Fn(usize, u32) -> f32) {
     film.samples = plan.count.iter().copied().max().unwrap() as u64;
 }
 
-/// Pixel 0 is constant (no noise); pixel 1 alternates 0 and 2 (relative
-/// standard deviation 1); pixel 2 is black.
-fn three_pixels(i: usize, s: u32) -> f32 {
-    match i {
+/// A row of nine pixels in three regions: pixels 0..3 are constant (no
+/// noise), pixels 3..6 alternate 0 and 2 (relative standard deviation 1),
+/// pixels 6..9 are black.
+fn three_regions(i: usize, s: u32) -> f32 {
+    match i / 3 {
         0 => 0.5,
         1 => 2.0 * (s % 2) as f32,
         _ => 0.0,
@@ -51,35 +52,36 @@ fn the_threshold_stops_a_pixel_after_two_decisions_in_a_row() {
         min_spp: 16,
         max_spp: 4096,
     };
-    let mut film = film_of(3, 0, three_pixels);
-    film.plan = sampling.first_plan(3);
-    assert_eq!(film.plan.as_ref().unwrap().goal, [16, 16, 16]);
-    render_to_goals(&mut film, three_pixels);
+    let mut film = film_of(9, 0, three_regions);
+    film.plan = sampling.first_plan(9);
+    assert_eq!(film.plan.as_ref().unwrap().goal, [16; 9]);
+    render_to_goals(&mut film, three_regions);
     assert!(sampling.decide(&mut film));
     let plan = film.plan.as_ref().unwrap();
+    let (t, f) = (true, false);
     assert_eq!(
         plan.met,
-        [true, false, true],
-        "noise-free pixels met it once"
+        [t, t, f, f, f, f, f, t, t],
+        "noise-free pixels met it once, but not those next to noisy ones"
     );
-    assert_eq!(
-        plan.goal,
-        [32, 32, 32],
-        "one decision does not stop a pixel"
-    );
-    render_to_goals(&mut film, three_pixels);
+    assert_eq!(plan.goal, [32; 9], "one decision does not stop a pixel");
+    render_to_goals(&mut film, three_regions);
     assert!(sampling.decide(&mut film));
     let plan = film.plan.as_ref().unwrap();
-    assert_eq!(plan.goal, [32, 64, 32], "the second decision in a row does");
-    // Pixel 1's relative standard error is 1/√(n-1): at most 0.05 from 401
-    // samples on, so it meets the threshold at 512 and stops at 1024, well
-    // below max_spp.
+    assert_eq!(
+        plan.goal,
+        [32, 32, 64, 64, 64, 64, 64, 32, 32],
+        "the second decision in a row does"
+    );
+    // The noisy pixels' relative standard error is 1/√(n-1): at most 0.05
+    // from 401 samples on, so they meet the threshold at 512 and stop at
+    // 1024, well below max_spp; their quiet neighbours go on with them.
     let mut decisions = 2;
-    while sampling.decide_after(&mut film, three_pixels) {
+    while sampling.decide_after(&mut film, three_regions) {
         decisions += 1;
     }
     let plan = film.plan.as_ref().unwrap();
-    assert_eq!(plan.count, [32, 1024, 32]);
+    assert_eq!(plan.count, [32, 32, 1024, 1024, 1024, 1024, 1024, 32, 32]);
     assert_eq!(plan.count, plan.goal, "stopped pixels rest at their goal");
     assert_eq!(decisions, 6, "pixels went on after 16, 32, ..., 512");
 }
@@ -91,21 +93,21 @@ fn the_threshold_stops_every_pixel_at_max_spp() {
         min_spp: 4,
         max_spp: 12,
     };
-    let mut film = film_of(3, 0, three_pixels);
-    film.plan = sampling.first_plan(3);
+    let mut film = film_of(9, 0, three_regions);
+    film.plan = sampling.first_plan(9);
     let mut goals = Vec::new();
     loop {
-        render_to_goals(&mut film, three_pixels);
+        render_to_goals(&mut film, three_regions);
         if !sampling.decide(&mut film) {
             break;
         }
-        goals.push(film.plan.as_ref().unwrap().goal[1]);
+        goals.push(film.plan.as_ref().unwrap().goal[4]);
     }
     assert_eq!(goals, [8, 12], "doubling, then max_spp");
     assert_eq!(
         film.plan.unwrap().count,
-        [8, 12, 8],
-        "noise-free pixels stop after two decisions, the noisy one at max_spp"
+        [8, 8, 12, 12, 12, 12, 12, 8, 8],
+        "noise-free pixels stop after two decisions, the noisy ones and their neighbours at max_spp"
     );
 }
 
@@ -192,13 +194,13 @@ fn sampling_texts_round_trip_and_bad_ones_are_refused() {
 
 #[test]
 fn relative_error_uses_the_floor_below_a_tenth() {
-    // Pixel 1: mean 1, standard deviation 1 over 16 samples: stderr about
-    // 0.258 (the unbiased variance 16/15). Pixel 2: black, no error.
-    let film = film_of(3, 16, three_pixels);
+    // Pixel 4: mean 1, standard deviation 1 over 16 samples: stderr about
+    // 0.258 (the unbiased variance 16/15). Pixel 8: black, no error.
+    let film = film_of(9, 16, three_regions);
     let want = (16.0f64 / 15.0).sqrt() / 4.0;
-    assert!((relative_error(&film, 1) - want).abs() < 1e-12);
+    assert!((relative_error(&film, 4) - want).abs() < 1e-12);
     assert_eq!(relative_error(&film, 0), 0.0);
-    assert_eq!(relative_error(&film, 2), 0.0);
+    assert_eq!(relative_error(&film, 8), 0.0);
     // A dim noisy pixel is judged against 0.1, not its own mean.
     let dim = film_of(1, 16, |_, s| 0.02 * (s % 2) as f32);
     let stderr = (0.01f64 * 0.01 * 16.0 / 15.0 / 16.0).sqrt();

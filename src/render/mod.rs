@@ -101,7 +101,7 @@ pub fn render<B: Backend + ?Sized>(
         samples: 0..u32::MAX,
         ..options.clone()
     };
-    while !film.plan.as_ref().is_some_and(|p| p.at_goals()) || options.sampling.decide(&mut film) {
+    while options.sampling.pass_due(&mut film) {
         let pass = render_into(scene, backend, &whole, &mut film, progress);
         stats.rays.add(&pass.rays);
         stats.samples += pass.samples;
@@ -354,13 +354,10 @@ material = "wall"
             sampling,
             ..RenderOptions::from_scene(scene)
         };
-        loop {
-            let plan = film.plan.as_ref().unwrap();
-            if plan.at_goals() && !sampling.decide(&mut film) {
-                return film;
-            }
+        while sampling.pass_due(&mut film) {
             pool.install(|| render_into_with(scene, &accel, &options, &mut film, &()));
         }
+        film
     }
 
     #[test]
