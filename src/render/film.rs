@@ -4,6 +4,7 @@
 //! An adaptive render's film also holds each pixel's own sample count and
 //! where it is headed ([`PixelPlan`]).
 
+use crate::image::metrics::RELATIVE_MSE_FLOOR;
 use crate::image::Image;
 use crate::math::{Rgb, Vec3};
 
@@ -192,21 +193,62 @@ impl Film {
         image
     }
 
-    /// The image's relative MSE as its own samples estimate it. With
-    /// independent samples this is an honest estimate; with low-discrepancy
-    /// samples the sample variance overstates the error of the mean.
+    /// The image's relative MSE as its own samples estimate it: the mean
+    /// over pixels and channels of stderr² / (m² + 0.01), where m is the
+    /// smaller of the pixel's mean and its 3×3 neighbourhood's
+    /// ([`Film::robust_mean`]). With independent samples this is an honest
+    /// estimate; with low-discrepancy samples the sample variance overstates
+    /// the error of the mean.
     pub fn error_estimate(&self) -> ErrorEstimate {
+        let means: Vec<[f64; 3]> = (0..self.sum.len()).map(|i| self.pixel_mean(i)).collect();
         let total: f64 = (0..self.sum.len())
             .map(|i| {
-                let (mean, var) = (self.pixel_mean(i), self.pixel_variance_of_mean(i));
+                let var = self.pixel_variance_of_mean(i);
+                let m = self.robust_mean(i, &means);
                 (0..3)
-                    .map(|c| var[c] / (mean[c] * mean[c] + 0.01))
+                    .map(|c| var[c] / (m[c] * m[c] + RELATIVE_MSE_FLOOR))
                     .sum::<f64>()
             })
             .sum();
         ErrorEstimate {
             rel_mse: total / (3 * self.sum.len().max(1)) as f64,
         }
+    }
+
+    /// Pixel `i`'s mean as the denominator of a relative error: per channel
+    /// the smaller of its own mean (`means[i]`) and its neighbourhood's. A
+    /// pixel's own mean alone puts its own noise in the denominator: a
+    /// pixel that caught a firefly divides its large variance by its large
+    /// mean, so the estimated relative MSE came out at 0.57× the actual one
+    /// on cornell-area at 64 spp. The neighbourhood's mean alone takes a dim
+    /// pixel's denominator from bright neighbours across an edge (0.40× on
+    /// a 16×16 box). The smaller of the two: 0.87–1.25× on those, and
+    /// 0.89–1.18× on 17 of the 19 scenes of `scenes/`.
+    pub fn robust_mean(&self, i: usize, means: &[[f64; 3]]) -> [f64; 3] {
+        let local = self.neighbourhood_mean(i, means);
+        std::array::from_fn(|c| means[i][c].min(local[c]))
+    }
+
+    /// The pixels of pixel `i`'s 3×3 neighbourhood, itself included,
+    /// clipped at the image's edges.
+    pub fn neighbourhood(&self, i: usize) -> impl Iterator<Item = usize> {
+        let (width, height) = (self.width as usize, self.height as usize);
+        let (x, y) = (i % width, i / width);
+        let xs = x.saturating_sub(1)..(x + 2).min(width);
+        (y.saturating_sub(1)..(y + 2).min(height))
+            .flat_map(move |y| xs.clone().map(move |x| y * width + x))
+    }
+
+    /// The mean of `values` over pixel `i`'s neighbourhood, per channel.
+    pub fn neighbourhood_mean(&self, i: usize, values: &[[f64; 3]]) -> [f64; 3] {
+        let (mut sum, mut n) = ([0.0; 3], 0.0);
+        for j in self.neighbourhood(i) {
+            for c in 0..3 {
+                sum[c] += values[j][c];
+            }
+            n += 1.0;
+        }
+        sum.map(|s| s / n)
     }
 
     /// Pixel `i`'s mean per channel.
