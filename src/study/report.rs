@@ -19,6 +19,9 @@ pub struct Row {
     pub time_s: f64,
     pub rmse: f64,
     pub rel_mse: f64,
+    /// The relMSE the render's own samples estimate (see
+    /// [`crate::render::film::Film::error_estimate`]).
+    pub estimated_rel_mse: f64,
     /// Mean of (image - reference) over all channel values.
     pub mean_bias: f64,
     /// 1 / (relMSE · time).
@@ -190,6 +193,7 @@ mod tests {
                     time_s,
                     rmse: 0.0,
                     rel_mse: c / time_s,
+                    estimated_rel_mse: c / time_s,
                     mean_bias: 0.0,
                     efficiency: 1.0 / c,
                 })

@@ -7,7 +7,7 @@ use crate::accel::{Accel, BackendKind, BuildOptions};
 use crate::geometry::Geometry;
 use crate::image::io::{self as imageio, WriteOptions};
 use crate::image::{metrics, Image};
-use crate::render::{render_with, IntegratorSettings, Progress, RenderOptions};
+use crate::render::{render_with, IntegratorSettings, Progress, RenderOptions, Sampling};
 use crate::scene::Scene;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -129,7 +129,11 @@ impl Study {
                         max_depth: setting.max_depth,
                         russian_roulette: setting.russian_roulette,
                     },
-                    sampling: crate::render::Sampling::Uniform,
+                    sampling: if setting.adaptive {
+                        Sampling::Budget { spp }
+                    } else {
+                        Sampling::Uniform
+                    },
                 };
                 render_with(&scene, &accel, &options, progress)
             };
@@ -148,6 +152,7 @@ impl Study {
                     time_s,
                     rmse: c.rmse,
                     rel_mse: c.rel_mse,
+                    estimated_rel_mse: film.error_estimate().rel_mse,
                     mean_bias: c.mean_a - c.mean_b,
                     efficiency: 1.0 / (c.rel_mse * time_s),
                 });

@@ -18,6 +18,9 @@ pub enum Vary {
     EmbreeRobust,
     /// Independent numbers against Sobol' points.
     Sampler,
+    /// Every pixel alike against the same budget spent where the relative
+    /// error is largest (`--adaptive`).
+    Sampling,
 }
 
 impl std::str::FromStr for Vary {
@@ -31,13 +34,14 @@ impl std::str::FromStr for Vary {
 }
 
 impl Vary {
-    const ALL: [Vary; 6] = [
+    const ALL: [Vary; 7] = [
         Self::Nee,
         Self::RussianRoulette,
         Self::MaxDepth,
         Self::EmbreeQuality,
         Self::EmbreeRobust,
         Self::Sampler,
+        Self::Sampling,
     ];
 
     /// The name `FromStr` accepts (which also takes `rr`).
@@ -49,6 +53,7 @@ impl Vary {
             Self::EmbreeQuality => "embree-quality",
             Self::EmbreeRobust => "embree-robust",
             Self::Sampler => "sampler",
+            Self::Sampling => "sampling",
         }
     }
 
@@ -70,6 +75,8 @@ pub struct Setting {
     pub russian_roulette: bool,
     pub max_depth: u32,
     pub sampler: SamplerKind,
+    /// Each spp of the sweep as a budget spent adaptively, not uniformly.
+    pub adaptive: bool,
     pub build: BuildOptions,
     /// The backend and the varied values, e.g. `embree / NEE off / RR on`.
     pub label: String,
@@ -158,6 +165,7 @@ pub(super) fn enumerate(
             russian_roulette: scene.render.russian_roulette,
             max_depth: scene.render.max_depth,
             sampler: scene.render.sampler,
+            adaptive: false,
             build,
             label: backend.name().to_owned(),
         })
@@ -184,6 +192,15 @@ pub(super) fn enumerate(
                     Vary::Nee => both(|t, on| t.nee = Some(on), "NEE"),
                     Vary::RussianRoulette => both(|t, on| t.russian_roulette = on, "RR"),
                     Vary::EmbreeRobust => both(|t, on| t.build.embree_robust = on, "robust"),
+                    Vary::Sampling => [false, true]
+                        .into_iter()
+                        .map(|adaptive| {
+                            let mut t = s.clone();
+                            t.adaptive = adaptive;
+                            let _ = write!(t.label, " / {}", sampling_name(adaptive));
+                            t
+                        })
+                        .collect(),
                     Vary::MaxDepth => max_depths
                         .iter()
                         .map(|&d| {
@@ -216,6 +233,14 @@ pub(super) fn enumerate(
             .collect();
     }
     settings
+}
+
+pub(super) fn sampling_name(adaptive: bool) -> &'static str {
+    if adaptive {
+        "adaptive"
+    } else {
+        "uniform"
+    }
 }
 
 pub(super) fn on_off(b: bool) -> &'static str {
@@ -288,5 +313,24 @@ mod tests {
                 ("rust / sobol", SamplerKind::Sobol)
             ]
         );
+
+        let t = enumerate(
+            &s,
+            &[BackendKind::Rust],
+            &[Vary::Sampling, Vary::Sampler],
+            &[],
+            BuildOptions::default(),
+        );
+        let labels: Vec<(&str, bool)> = t.iter().map(|t| (t.label.as_str(), t.adaptive)).collect();
+        assert_eq!(
+            labels,
+            [
+                ("rust / uniform / independent", false),
+                ("rust / uniform / sobol", false),
+                ("rust / adaptive / independent", true),
+                ("rust / adaptive / sobol", true),
+            ]
+        );
+        assert_eq!("sampling".parse::<Vary>(), Ok(Vary::Sampling));
     }
 }

@@ -1,19 +1,20 @@
 //! The study's tables: every render as CSV, and the Markdown summary that
 //! ranks the settings.
 
-use super::settings::on_off;
+use super::settings::{on_off, sampling_name};
 use super::{Reach, Report};
 use crate::accel::BackendKind;
 use std::fmt::Write as _;
 
 /// The CSV's columns, in order.
-pub const CSV_COLUMNS: [&str; 15] = [
+pub const CSV_COLUMNS: [&str; 17] = [
     "setting",
     "backend",
     "nee",
     "russian_roulette",
     "max_depth",
     "sampler",
+    "sampling",
     "embree_quality",
     "embree_robust",
     "spp",
@@ -21,6 +22,7 @@ pub const CSV_COLUMNS: [&str; 15] = [
     "build_s",
     "rmse",
     "rel_mse",
+    "estimated_rel_mse",
     "mean_bias",
     "efficiency",
 ];
@@ -38,18 +40,20 @@ impl Report {
             };
             let _ = writeln!(
                 s,
-                "{},{},{},{},{},{},{quality},{robust},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{quality},{robust},{},{},{},{},{},{},{},{}",
                 t.label,
                 t.backend.name(),
                 t.nee.map_or("scene", on_off),
                 on_off(t.russian_roulette),
                 t.max_depth,
                 t.sampler.name(),
+                sampling_name(t.adaptive),
                 r.spp,
                 r.time_s,
                 r.build_s,
                 r.rmse,
                 r.rel_mse,
+                r.estimated_rel_mse,
                 r.mean_bias,
                 r.efficiency
             );

@@ -189,9 +189,9 @@ pub(crate) struct StudyArgs {
     pub(crate) backends: Vec<BackendKind>,
     /// What to vary, every combination: nee (area lights; point lights are
     /// always sampled), russian-roulette, max-depth, embree-quality,
-    /// embree-robust, sampler. A varied setting replaces its option
-    /// (--max-depth, --russian-roulette, --embree-quality, --embree-robust,
-    /// --sampler).
+    /// embree-robust, sampler, sampling (uniform against --adaptive at each
+    /// spp's budget). A varied setting replaces its option (--max-depth,
+    /// --russian-roulette, --embree-quality, --embree-robust, --sampler).
     #[arg(long, value_delimiter = ',')]
     pub(crate) vary: Vec<Vary>,
     /// Depths of `--vary max-depth` (default 3,5,8).
