@@ -176,7 +176,7 @@ fn decide_threshold(film: &mut Film, threshold: f64, max_spp: u32) -> bool {
 /// take samples by the thousand.
 fn budget_weights(film: &Film) -> Vec<f64> {
     let pixels = film.sum.len();
-    let means: Vec<[f64; 3]> = (0..pixels).map(|i| film.pixel_mean(i)).collect();
+    let means = film.pixel_means();
     let variances: Vec<[f64; 3]> = (0..pixels)
         .map(|i| {
             let n = film.count(i) as f64;

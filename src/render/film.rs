@@ -200,7 +200,7 @@ impl Film {
     /// estimate; with low-discrepancy samples the sample variance overstates
     /// the error of the mean.
     pub fn error_estimate(&self) -> ErrorEstimate {
-        let means: Vec<[f64; 3]> = (0..self.sum.len()).map(|i| self.pixel_mean(i)).collect();
+        let means = self.pixel_means();
         let total: f64 = (0..self.sum.len())
             .map(|i| {
                 let var = self.pixel_variance_of_mean(i);
@@ -249,6 +249,11 @@ impl Film {
             n += 1.0;
         }
         sum.map(|s| s / n)
+    }
+
+    /// Every pixel's mean per channel, for the neighbourhood statistics.
+    pub fn pixel_means(&self) -> Vec<[f64; 3]> {
+        (0..self.sum.len()).map(|i| self.pixel_mean(i)).collect()
     }
 
     /// Pixel `i`'s mean per channel.

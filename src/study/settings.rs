@@ -177,62 +177,61 @@ pub(super) fn enumerate(
                 if v.embree_only() && s.backend != BackendKind::Embree {
                     return vec![s];
                 }
-                let both = |f: fn(&mut Setting, bool), name: &str| -> Vec<Setting> {
-                    [true, false]
-                        .into_iter()
-                        .map(|on| {
-                            let mut t = s.clone();
-                            f(&mut t, on);
-                            let _ = write!(t.label, " / {name} {}", on_off(on));
-                            t
-                        })
-                        .collect()
+                let both = |f: fn(&mut Setting, bool), name: &str| {
+                    variants(&s, [true, false], f, |on| format!("{name} {}", on_off(on)))
                 };
                 match v {
                     Vary::Nee => both(|t, on| t.nee = Some(on), "NEE"),
                     Vary::RussianRoulette => both(|t, on| t.russian_roulette = on, "RR"),
                     Vary::EmbreeRobust => both(|t, on| t.build.embree_robust = on, "robust"),
-                    Vary::Sampling => [false, true]
-                        .into_iter()
-                        .map(|adaptive| {
-                            let mut t = s.clone();
-                            t.adaptive = adaptive;
-                            let _ = write!(t.label, " / {}", sampling_name(adaptive));
-                            t
-                        })
-                        .collect(),
-                    Vary::MaxDepth => max_depths
-                        .iter()
-                        .map(|&d| {
-                            let mut t = s.clone();
-                            t.max_depth = d;
-                            let _ = write!(t.label, " / depth {d}");
-                            t
-                        })
-                        .collect(),
-                    Vary::Sampler => SamplerKind::ALL
-                        .into_iter()
-                        .map(|kind| {
-                            let mut t = s.clone();
-                            t.sampler = kind;
-                            let _ = write!(t.label, " / {}", kind.name());
-                            t
-                        })
-                        .collect(),
-                    Vary::EmbreeQuality => [Quality::Low, Quality::Medium, Quality::High]
-                        .into_iter()
-                        .map(|q| {
-                            let mut t = s.clone();
-                            t.build.embree_quality = q;
-                            let _ = write!(t.label, " / {} quality", q.name());
-                            t
-                        })
-                        .collect(),
+                    Vary::Sampling => variants(
+                        &s,
+                        [false, true],
+                        |t, adaptive| t.adaptive = adaptive,
+                        |adaptive| sampling_name(adaptive).to_owned(),
+                    ),
+                    Vary::MaxDepth => variants(
+                        &s,
+                        max_depths.iter().copied(),
+                        |t, d| t.max_depth = d,
+                        |d| format!("depth {d}"),
+                    ),
+                    Vary::Sampler => variants(
+                        &s,
+                        SamplerKind::ALL,
+                        |t, kind| t.sampler = kind,
+                        |kind| kind.name().to_owned(),
+                    ),
+                    Vary::EmbreeQuality => variants(
+                        &s,
+                        [Quality::Low, Quality::Medium, Quality::High],
+                        |t, q| t.build.embree_quality = q,
+                        |q| format!("{} quality", q.name()),
+                    ),
                 }
             })
             .collect();
     }
     settings
+}
+
+/// One copy of `setting` per value, each with `apply` done and
+/// ` / {label(value)}` added to its label.
+fn variants<T: Copy>(
+    setting: &Setting,
+    values: impl IntoIterator<Item = T>,
+    apply: impl Fn(&mut Setting, T),
+    label: impl Fn(T) -> String,
+) -> Vec<Setting> {
+    values
+        .into_iter()
+        .map(|value| {
+            let mut t = setting.clone();
+            apply(&mut t, value);
+            let _ = write!(t.label, " / {}", label(value));
+            t
+        })
+        .collect()
 }
 
 pub(super) fn sampling_name(adaptive: bool) -> &'static str {
