@@ -408,9 +408,15 @@ fn sliver_and_degenerate_triangles() {
             probes / 2,
             probes / 2
         );
-        let edge_ok = name == "embree" || lost_edge == 0;
-        let self_hits_allowed = if name == "embree" { rays / 10_000 } else { 0 };
-        if nf > 0 || self_hits > self_hits_allowed || lost_inside > 0 || !edge_ok {
+        // Embree's default triangle test is not watertight, and how much it
+        // loses depends on the CPU's code path (an AVX-512 machine lost 1 of
+        // 25,000 interior probes on these slivers): it may lose edges and
+        // one interior probe in 10,000, as many as the self-hits it may
+        // have; the robust mode and the native backend may lose nothing.
+        let lenient = name == "embree";
+        let edge_ok = lenient || lost_edge == 0;
+        let allowed = |n: u64| if lenient { n / 10_000 } else { 0 };
+        if nf > 0 || self_hits > allowed(rays) || lost_inside > allowed(probes / 2) || !edge_ok {
             failures.push(format!(
                 "{name}: {nf} non-finite, {self_hits} self-hits, {lost_inside} interior and {lost_edge} edge probes lost"
             ));
