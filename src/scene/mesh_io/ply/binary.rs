@@ -5,6 +5,7 @@ use super::builder::Builder;
 use super::header::{Element, Kind, Property, Ty};
 use super::plan::Role;
 use super::trailing;
+use super::triangles::bulk_triangles;
 use crate::scene::mesh_io::fail::{fail_byte, short, Fail};
 
 #[inline(always)]
@@ -61,7 +62,15 @@ pub(super) fn binary_body<const BE: bool>(
         });
         pos = match stride {
             Some(stride) => fixed_records::<BE>(data, pos, stride, el, roles, out)?,
-            None => list_records::<BE>(data, pos, el, roles, out)?,
+            None => match bulk_triangles::<BE>(data, pos, el, roles, out.vertex_count()) {
+                Some((indices, end)) => {
+                    // Only the one face element has the indices' role.
+                    debug_assert!(out.indices.is_empty());
+                    out.indices = indices;
+                    end
+                }
+                None => list_records::<BE>(data, pos, el, roles, out)?,
+            },
         };
     }
     if pos < data.len() {

@@ -83,6 +83,11 @@ impl Builder {
         }
     }
 
+    /// The number of vertices indices must stay below.
+    pub(super) fn vertex_count(&self) -> usize {
+        self.nv as usize
+    }
+
     #[inline]
     pub(super) fn index(&mut self, i: i64, face: usize) -> Result<(), String> {
         if i < 0 || i >= self.nv as i64 {

@@ -7,6 +7,7 @@ mod builder;
 mod header;
 mod numbers;
 mod plan;
+mod triangles;
 
 pub(super) use header::{parse_header, Format, Header, Kind, Ty};
 pub(super) use numbers::parse_float;
