@@ -7,7 +7,7 @@
 //! that into a fixed pair of dimensions, so the camera and the first
 //! vertices, whose decisions matter most, get the stratified ones.
 
-use super::sobol::{self, Seeds};
+use super::sobol::{self, Scramble, Seeds};
 use super::{splitmix64, Rng};
 use crate::math::Vec2;
 
@@ -77,8 +77,8 @@ pub enum Sampler {
 pub struct SobolSample {
     pixel: u64,
     index: u32,
-    /// `index` with its bits reversed, as every dimension's shuffle takes it.
-    reversed: u32,
+    /// `index` as every dimension's shuffle takes it, computed once.
+    shuffle_input: sobol::Index,
 }
 
 impl Sampler {
@@ -88,7 +88,7 @@ impl Sampler {
             SamplerKind::Sobol => Self::Sobol(SobolSample {
                 pixel: pixel_key(seed, x, y),
                 index: sample,
-                reversed: sample.reverse_bits(),
+                shuffle_input: sobol::Index::new(sample),
             }),
         }
     }
@@ -208,7 +208,12 @@ impl SobolSample {
             return self.hashed_1d(slot);
         }
         let h = self.slot_seeds(slot);
-        sobol::point_1d(self.reversed, h as u32, (h >> 32) as u32)
+        let seeds = Seeds {
+            shuffle: Scramble::new(h as u32),
+            x: Scramble::new((h >> 32) as u32),
+            y: Scramble::default(),
+        };
+        sobol::point_1d(self.shuffle_input, &seeds)
     }
 
     #[inline(always)]
@@ -218,13 +223,13 @@ impl SobolSample {
         }
         let h = self.slot_seeds(slot);
         let seeds = Seeds {
-            shuffle: h as u32,
-            x: (h >> 32) as u32,
+            shuffle: Scramble::new(h as u32),
+            x: Scramble::new((h >> 32) as u32),
             // One multiply by an odd constant mixes every bit of `h` into
             // the high half: a third seed for the price of one.
-            y: (h.wrapping_mul(SPREAD) >> 32) as u32,
+            y: Scramble::new((h.wrapping_mul(SPREAD) >> 32) as u32),
         };
-        let (x, y) = sobol::point_2d(self.reversed, seeds);
+        let (x, y) = sobol::point_2d(self.shuffle_input, &seeds);
         Vec2::new(x, y)
     }
 }

@@ -25,24 +25,58 @@
 /// function of the bits below it and of `seed`. On bit-reversed values that
 /// is a nested uniform scramble: each digit is flipped depending on the
 /// digits before it.
-#[inline]
-fn laine_karras(mut v: u32, seed: u32) -> u32 {
-    v ^= v.wrapping_mul(0x3d20_adea);
-    v = v.wrapping_add(seed);
-    v = v.wrapping_mul((seed >> 16) | 1);
+#[inline(always)]
+fn laine_karras(v: u32, s: Scramble) -> u32 {
+    laine_karras_seeded(premix(v), s)
+}
+
+/// The hash's first step, the one that does not depend on the seed: the
+/// index shuffles of all of a sample's dimensions take the same reversed
+/// index, so they share it ([`Index`]).
+#[inline(always)]
+fn premix(v: u32) -> u32 {
+    v ^ v.wrapping_mul(0x3d20_adea)
+}
+
+/// The rest of `laine_karras`, on a value that went through `premix`.
+#[inline(always)]
+fn laine_karras_seeded(mut v: u32, s: Scramble) -> u32 {
+    v = v.wrapping_add(s.seed);
+    v = v.wrapping_mul(s.odd);
     v ^= v.wrapping_mul(0x0552_6c56);
     v ^= v.wrapping_mul(0x53a2_2864);
     v
 }
 
-/// The shuffled index of the sample index whose bits, reversed, are
-/// `reversed` (reversed once per sample by the caller, not once per
-/// dimension). In the index, bit j is flipped by a function of the bits
-/// above it, so the indices below 2^m go to one aligned block of 2^m.
-/// `point_2d` never forms it: its table reads the hash's output directly.
-#[cfg(test)]
-fn shuffle(reversed: u32, seed: u32) -> u32 {
-    laine_karras(reversed, seed).reverse_bits()
+/// One Laine–Karras hash's seed, with the odd multiplier pbrt-v4 derives
+/// from it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Scramble {
+    seed: u32,
+    odd: u32,
+}
+
+impl Scramble {
+    #[inline]
+    pub const fn new(seed: u32) -> Self {
+        Self {
+            seed,
+            odd: (seed >> 16) | 1,
+        }
+    }
+}
+
+/// A sample index as every dimension's shuffle takes it: bit-reversed,
+/// and through the shuffle hash's seed-independent first step. Computed
+/// once per sample, not once per dimension.
+#[derive(Clone, Copy, Debug)]
+pub struct Index(u32);
+
+impl Index {
+    #[inline]
+    pub fn new(index: u32) -> Self {
+        Self(premix(index.reverse_bits()))
+    }
 }
 
 /// Direction numbers of a Sobol' dimension as 32-bit fractions, column k
@@ -90,7 +124,7 @@ const DIMENSION_1: [u32; 32] = generator_columns(1, 0, &[1]);
 /// dimension 0 in the low 32 bits, dimension 1 in the high 32. Dimension
 /// 0's reversed value is `i` itself, so this table is also the reversal
 /// between the two hashes, and both dimensions cost the same four lookups.
-static MATRIX_BYTES: [[u64; 256]; 4] = matrix_bytes(&DIMENSION_1);
+const MATRIX_BYTES: [[u64; 256]; 4] = matrix_bytes(&DIMENSION_1);
 
 const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
     let mut t = [[0u64; 256]; 4];
@@ -121,7 +155,7 @@ const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
 #[inline]
 fn both_reversed(reversed_index: u32) -> u64 {
     let [b0, b1, b2, b3] = reversed_index.to_le_bytes();
-    let t = &MATRIX_BYTES;
+    let t = &TABLES.matrix;
     t[0][b0 as usize] ^ t[1][b1 as usize] ^ t[2][b2 as usize] ^ t[3][b3 as usize]
 }
 
@@ -131,7 +165,20 @@ fn both_reversed(reversed_index: u32) -> u64 {
 /// exact and equals `to_unit` of the reversal. Three lookups and two
 /// additions instead of a bit reversal, which x86-64 has no instruction
 /// for.
-static UNIT_BYTES: [[f32; 256]; 3] = unit_bytes();
+const UNIT_BYTES: [[f32; 256]; 3] = unit_bytes();
+
+/// Both tables in one static: a position-independent executable reaches a
+/// static through its address in the global offset table, one load per
+/// static, so a point that reads both tables pays that load once.
+struct Tables {
+    matrix: [[u64; 256]; 4],
+    unit: [[f32; 256]; 3],
+}
+
+static TABLES: Tables = Tables {
+    matrix: MATRIX_BYTES,
+    unit: UNIT_BYTES,
+};
 
 const fn unit_bytes() -> [[f32; 256]; 3] {
     let mut t = [[0f32; 256]; 3];
@@ -151,42 +198,41 @@ const fn unit_bytes() -> [[f32; 256]; 3] {
 #[inline]
 fn unit_of_reversed(reversed: u32) -> f32 {
     let [b0, b1, b2, _] = reversed.to_le_bytes();
-    let t = &UNIT_BYTES;
+    let t = &TABLES.unit;
     t[0][b0 as usize] + (t[1][b1 as usize] + t[2][b2 as usize])
 }
 
-/// The per-point seeds of one pair of dimensions: the index shuffle and
-/// one scramble per dimension.
-#[derive(Clone, Copy, Debug)]
+/// The seeds of one pair of dimensions: the index shuffle and one scramble
+/// per dimension (a 1D decision uses `shuffle` and `x`).
+#[derive(Clone, Copy, Debug, Default)]
 pub struct Seeds {
-    pub shuffle: u32,
-    pub x: u32,
-    pub y: u32,
+    pub shuffle: Scramble,
+    pub x: Scramble,
+    pub y: Scramble,
 }
 
-/// The point of sample index `reversed.reverse_bits()` in the shuffled,
-/// scrambled (0,2)-sequence, in [0, 1)².
+/// The point of sample `index` in the shuffled, scrambled (0,2)-sequence,
+/// in [0, 1)².
 ///
 /// The whole way is in the bit-reversed domain: the shuffle's hash takes
 /// the reversed index and gives the reversed shuffled index, one table
 /// turns that into both dimensions' reversed values, the scrambles' hashes
 /// take those, and the floats are read off the reversed results. No bit is
-/// reversed but the sample index, once per sample by the caller.
+/// reversed but the sample index, once per sample ([`Index`]).
 #[inline]
-pub fn point_2d(reversed: u32, seeds: Seeds) -> (f32, f32) {
-    let both = both_reversed(laine_karras(reversed, seeds.shuffle));
+pub fn point_2d(index: Index, seeds: &Seeds) -> (f32, f32) {
+    let both = both_reversed(laine_karras_seeded(index.0, seeds.shuffle));
     let x = laine_karras(both as u32, seeds.x);
     let y = laine_karras((both >> 32) as u32, seeds.y);
     (unit_of_reversed(x), unit_of_reversed(y))
 }
 
-/// The point of sample index `reversed.reverse_bits()` in the shuffled,
-/// scrambled van der Corput sequence: a (0,1)-sequence, stratified in every
-/// power-of-two prefix.
+/// The point of sample `index` in the shuffled, scrambled van der Corput
+/// sequence: a (0,1)-sequence, stratified in every power-of-two prefix.
 #[inline]
-pub fn point_1d(reversed: u32, shuffle_seed: u32, scramble: u32) -> f32 {
-    let shuffled = both_reversed(laine_karras(reversed, shuffle_seed)) as u32;
-    unit_of_reversed(laine_karras(shuffled, scramble))
+pub fn point_1d(index: Index, seeds: &Seeds) -> f32 {
+    let shuffled = both_reversed(laine_karras_seeded(index.0, seeds.shuffle)) as u32;
+    unit_of_reversed(laine_karras(shuffled, seeds.x))
 }
 
 /// A 32-bit fraction as an f32 in [0, 1), rounded down to 24 bits.
@@ -238,12 +284,33 @@ mod tests {
         assert_eq!(DIMENSION_1[31], u32::MAX);
     }
 
+    /// pbrt-v4's `FastOwenScrambler` in one piece, as `premix`,
+    /// `Scramble::new` and `laine_karras_seeded` split it.
+    fn whole_laine_karras(mut v: u32, seed: u32) -> u32 {
+        v ^= v.wrapping_mul(0x3d20_adea);
+        v = v.wrapping_add(seed);
+        v = v.wrapping_mul((seed >> 16) | 1);
+        v ^= v.wrapping_mul(0x0552_6c56);
+        v ^= v.wrapping_mul(0x53a2_2864);
+        v
+    }
+
+    /// The shuffled index of the sample index whose bits, reversed, are
+    /// `reversed`. In the index, bit j is flipped by a function of the bits
+    /// above it, so the indices below 2^m go to one aligned block of 2^m.
+    /// `point_2d` never forms it: its table reads the hash's output
+    /// directly.
+    fn shuffle(reversed: u32, seed: u32) -> u32 {
+        whole_laine_karras(reversed, seed).reverse_bits()
+    }
+
     /// The points as they were computed before the tables: three bit
-    /// reversals per pair, dimension 1 multiplied out bit by bit.
-    fn point_2d_by_reversals(reversed: u32, seeds: Seeds) -> (f32, f32) {
-        let i = shuffle(reversed, seeds.shuffle);
-        let x = laine_karras(i, seeds.x).reverse_bits();
-        let y = laine_karras(dimension_1(i).reverse_bits(), seeds.y).reverse_bits();
+    /// reversals per pair, dimension 1 multiplied out bit by bit, each hash
+    /// in one piece.
+    fn point_2d_by_reversals(reversed: u32, [shuffle_seed, x, y]: [u32; 3]) -> (f32, f32) {
+        let i = shuffle(reversed, shuffle_seed);
+        let x = whole_laine_karras(i, x).reverse_bits();
+        let y = whole_laine_karras(dimension_1(i).reverse_bits(), y).reverse_bits();
         (to_unit(x), to_unit(y))
     }
 
@@ -264,17 +331,16 @@ mod tests {
             h = h
                 .wrapping_mul(0x5851_f42d_4c95_7f2d)
                 .wrapping_add(1442695040888963407);
+            let raw = [(h >> 32) as u32, h as u32, (h >> 16) as u32];
             let seeds = Seeds {
-                shuffle: (h >> 32) as u32,
-                x: h as u32,
-                y: (h >> 16) as u32,
+                shuffle: Scramble::new(raw[0]),
+                x: Scramble::new(raw[1]),
+                y: Scramble::new(raw[2]),
             };
-            let r = k.wrapping_mul(0x2545_f491).reverse_bits();
-            assert_eq!(point_2d(r, seeds), point_2d_by_reversals(r, seeds));
-            assert_eq!(
-                point_1d(r, seeds.shuffle, seeds.x),
-                point_2d_by_reversals(r, seeds).0
-            );
+            let index = k.wrapping_mul(0x2545_f491);
+            let by_reversals = point_2d_by_reversals(index.reverse_bits(), raw);
+            assert_eq!(point_2d(Index::new(index), &seeds), by_reversals);
+            assert_eq!(point_1d(Index::new(index), &seeds), by_reversals.0);
         }
     }
 
@@ -283,9 +349,10 @@ mod tests {
         // Changing bit j of the input leaves every bit below j as it was.
         for seed in [0u32, 1, 0xdead_beef] {
             for v in [0u32, 0x1234_5678, u32::MAX] {
-                let out = laine_karras(v, seed);
+                let out = laine_karras(v, Scramble::new(seed));
+                assert_eq!(out, whole_laine_karras(v, seed));
                 for j in 0..32 {
-                    let changed = laine_karras(v ^ (1 << j), seed);
+                    let changed = laine_karras(v ^ (1 << j), Scramble::new(seed));
                     let below = (1u64 << j) as u32 - 1;
                     assert_eq!(out & below, changed & below);
                     assert_ne!(out & (1 << j), changed & (1 << j));
