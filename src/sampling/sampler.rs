@@ -98,7 +98,7 @@ impl Sampler {
     pub fn camera(&mut self) -> Vec2 {
         match self {
             Self::Independent(rng) => rng.next_2d(),
-            Self::Sobol(s) => s.get_2d(0),
+            Self::Sobol(s) => s.camera(),
         }
     }
 
@@ -154,7 +154,7 @@ fn pixel_key(seed: u64, x: u32, y: u32) -> u64 {
     splitmix64(pixel ^ seed.wrapping_mul(SPREAD))
 }
 
-/// Odd constant of `slot_seeds`'s multiply (Pelle Evensen's rrmxmx).
+/// Odd constant of `seeds`'s multiply (Pelle Evensen's rrmxmx).
 const MIX: u64 = 0x9fb2_1c65_1e98_df25;
 
 /// Odd constant that spreads slot ids (or sample indices) over 64 bits
@@ -173,10 +173,19 @@ impl SobolSample {
     /// but cheaper: the pixel's key is already a full hash, so one multiply
     /// and one fold are enough to tell its slots apart (the shuffles of two
     /// slots must not be related, or their points would be correlated).
+    /// What a decision does not use (the camera's shuffle, a 1D decision's
+    /// `y`) the compiler leaves out.
     #[inline(always)]
-    fn slot_seeds(&self, slot: u64) -> u64 {
+    fn seeds(&self, slot: u64) -> Seeds {
         let h = (self.pixel ^ (slot + 1).wrapping_mul(SPREAD)).wrapping_mul(MIX);
-        h ^ (h >> 32)
+        let h = h ^ (h >> 32);
+        Seeds {
+            shuffle: Scramble::new(h as u32),
+            x: Scramble::new((h >> 32) as u32),
+            // One multiply by an odd constant mixes every bit of `h` into
+            // the high half: a third seed for the price of one.
+            y: Scramble::new((h.wrapping_mul(SPREAD) >> 32) as u32),
+        }
     }
 
     /// Independent numbers of this sample for `slot`, past the covered
@@ -207,13 +216,16 @@ impl SobolSample {
         if slot >= SOBOL_SLOTS {
             return self.hashed_1d(slot);
         }
-        let h = self.slot_seeds(slot);
-        let seeds = Seeds {
-            shuffle: Scramble::new(h as u32),
-            x: Scramble::new((h >> 32) as u32),
-            y: Scramble::default(),
-        };
-        sobol::point_1d(self.shuffle_input, &seeds)
+        sobol::point_1d(self.shuffle_input, &self.seeds(slot))
+    }
+
+    /// The camera's pair, slot 0, in sample order: it needs no shuffle
+    /// (`sobol::point_2d_in_order`).
+    #[inline(always)]
+    fn camera(&self) -> Vec2 {
+        let seeds = self.seeds(0);
+        let (x, y) = sobol::point_2d_in_order(self.shuffle_input, seeds.x, seeds.y);
+        Vec2::new(x, y)
     }
 
     #[inline(always)]
@@ -221,15 +233,7 @@ impl SobolSample {
         if slot >= SOBOL_SLOTS {
             return self.hashed_2d(slot);
         }
-        let h = self.slot_seeds(slot);
-        let seeds = Seeds {
-            shuffle: Scramble::new(h as u32),
-            x: Scramble::new((h >> 32) as u32),
-            // One multiply by an odd constant mixes every bit of `h` into
-            // the high half: a third seed for the price of one.
-            y: Scramble::new((h.wrapping_mul(SPREAD) >> 32) as u32),
-        };
-        let (x, y) = sobol::point_2d(self.shuffle_input, &seeds);
+        let (x, y) = sobol::point_2d(self.shuffle_input, &self.seeds(slot));
         Vec2::new(x, y)
     }
 }

@@ -20,25 +20,41 @@
 //! new-joe-kuo-6.21201 at https://web.maths.unsw.edu.au/~fkuo/sobol/, its
 //! first line `2 1 0 1`). Padding needs no other dimension.
 
-/// The Laine–Karras style hash that pbrt-v4's `FastOwenScrambler` uses: a
-/// bijection on u32 in which output bit j is input bit j flipped by a
-/// function of the bits below it and of `seed`. On bit-reversed values that
-/// is a nested uniform scramble: each digit is flipped depending on the
-/// digits before it.
-#[inline(always)]
-fn laine_karras(v: u32, s: Scramble) -> u32 {
-    laine_karras_seeded(premix(v), s)
-}
+// The Laine–Karras style hash that pbrt-v4's `FastOwenScrambler` uses is
+// `premix` followed by `laine_karras_seeded`: a bijection on u32 in which
+// output bit j is input bit j flipped by a function of the bits below it
+// and of the seed. On bit-reversed values that is a nested uniform (Owen)
+// scramble: each digit is flipped depending on the digits before it. The
+// index shuffles use it as it is; the points' scrambles take its first step
+// without carries (`linear_premix`), which `MATRIX_BYTES` applies for free.
 
 /// The hash's first step, the one that does not depend on the seed: the
 /// index shuffles of all of a sample's dimensions take the same reversed
 /// index, so they share it ([`Index`]).
 #[inline(always)]
 fn premix(v: u32) -> u32 {
-    v ^ v.wrapping_mul(0x3d20_adea)
+    v ^ v.wrapping_mul(PREMIX)
 }
 
-/// The rest of `laine_karras`, on a value that went through `premix`.
+const PREMIX: u32 = 0x3d20_adea;
+
+/// `premix` with its multiply carry-less: still bit j flipped by bits below
+/// it (the constant is even), and linear over XOR, so that it commutes with
+/// the table lookups of `both_reversed` and costs nothing there.
+const fn linear_premix(v: u32) -> u32 {
+    let mut r = v;
+    let mut k = 1;
+    while k < 32 {
+        if (PREMIX >> k) & 1 == 1 {
+            r ^= v << k;
+        }
+        k += 1;
+    }
+    r
+}
+
+/// The rest of the hash, on a value that went through `premix` or
+/// `linear_premix`.
 #[inline(always)]
 fn laine_karras_seeded(mut v: u32, s: Scramble) -> u32 {
     v = v.wrapping_add(s.seed);
@@ -66,16 +82,23 @@ impl Scramble {
     }
 }
 
-/// A sample index as every dimension's shuffle takes it: bit-reversed,
-/// and through the shuffle hash's seed-independent first step. Computed
-/// once per sample, not once per dimension.
+/// A sample index as the pairs of dimensions take it: bit-reversed, and for
+/// the shuffles also through their hash's seed-independent first step.
+/// Computed once per sample, not once per dimension.
 #[derive(Clone, Copy, Debug)]
-pub struct Index(u32);
+pub struct Index {
+    reversed: u32,
+    premixed: u32,
+}
 
 impl Index {
     #[inline]
     pub fn new(index: u32) -> Self {
-        Self(premix(index.reverse_bits()))
+        let reversed = index.reverse_bits();
+        Self {
+            reversed,
+            premixed: premix(reversed),
+        }
     }
 }
 
@@ -121,9 +144,10 @@ const DIMENSION_1: [u32; 32] = generator_columns(1, 0, &[1]);
 /// bits of `reverse_bits(i)` (what the shuffle's hash puts out) eight at a
 /// time, with the results bit-reversed (what the scrambles' hash takes in):
 /// entry `[k][b]` is what byte `k` of the reversed index contributes,
-/// dimension 0 in the low 32 bits, dimension 1 in the high 32. Dimension
-/// 0's reversed value is `i` itself, so this table is also the reversal
-/// between the two hashes, and both dimensions cost the same four lookups.
+/// dimension 0 in the low 32 bits, dimension 1 in the high 32, each through
+/// `linear_premix`, the scrambles' first step. Dimension 0's reversed value
+/// is `i` itself, so this table is also the reversal between the two
+/// hashes, and both dimensions cost the same four lookups.
 const MATRIX_BYTES: [[u64; 256]; 4] = matrix_bytes(&DIMENSION_1);
 
 const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
@@ -138,7 +162,9 @@ const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
                 if (b >> bit) & 1 == 1 {
                     // Bit 8 byte + bit of the reversed index is bit q of i.
                     let q = 31 - (8 * byte + bit);
-                    v ^= (1u64 << q) | ((dimension_1[q].reverse_bits() as u64) << 32);
+                    let x = linear_premix(1 << q) as u64;
+                    let y = linear_premix(dimension_1[q].reverse_bits()) as u64;
+                    v ^= x | (y << 32);
                 }
                 bit += 1;
             }
@@ -151,7 +177,8 @@ const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
 }
 
 /// Dimensions 0 (low 32 bits) and 1 (high 32 bits) of the shuffled index
-/// whose bits, reversed, are `reversed_index`, each bit-reversed.
+/// whose bits, reversed, are `reversed_index`, each bit-reversed and
+/// through `linear_premix`.
 #[inline]
 fn both_reversed(reversed_index: u32) -> u64 {
     let [b0, b1, b2, b3] = reversed_index.to_le_bytes();
@@ -167,19 +194,6 @@ fn both_reversed(reversed_index: u32) -> u64 {
 /// for.
 const UNIT_BYTES: [[f32; 256]; 3] = unit_bytes();
 
-/// Both tables in one static: a position-independent executable reaches a
-/// static through its address in the global offset table, one load per
-/// static, so a point that reads both tables pays that load once.
-struct Tables {
-    matrix: [[u64; 256]; 4],
-    unit: [[f32; 256]; 3],
-}
-
-static TABLES: Tables = Tables {
-    matrix: MATRIX_BYTES,
-    unit: UNIT_BYTES,
-};
-
 const fn unit_bytes() -> [[f32; 256]; 3] {
     let mut t = [[0f32; 256]; 3];
     let mut byte = 0;
@@ -193,6 +207,19 @@ const fn unit_bytes() -> [[f32; 256]; 3] {
     }
     t
 }
+
+/// Both tables in one static: a position-independent executable reaches a
+/// static through its address in the global offset table, one load per
+/// static, so a point that reads both tables pays that load once.
+struct Tables {
+    matrix: [[u64; 256]; 4],
+    unit: [[f32; 256]; 3],
+}
+
+static TABLES: Tables = Tables {
+    matrix: MATRIX_BYTES,
+    unit: UNIT_BYTES,
+};
 
 /// `to_unit(reversed.reverse_bits())`.
 #[inline]
@@ -221,9 +248,23 @@ pub struct Seeds {
 /// reversed but the sample index, once per sample ([`Index`]).
 #[inline]
 pub fn point_2d(index: Index, seeds: &Seeds) -> (f32, f32) {
-    let both = both_reversed(laine_karras_seeded(index.0, seeds.shuffle));
-    let x = laine_karras(both as u32, seeds.x);
-    let y = laine_karras((both >> 32) as u32, seeds.y);
+    let shuffled = laine_karras_seeded(index.premixed, seeds.shuffle);
+    scrambled_2d(both_reversed(shuffled), seeds.x, seeds.y)
+}
+
+/// `point_2d` without the shuffle: the points in sample order. One pair of
+/// dimensions may keep that order, since every other pair's shuffle makes
+/// its order unrelated to it; the camera's does, which saves a hash per
+/// sample.
+#[inline]
+pub fn point_2d_in_order(index: Index, x: Scramble, y: Scramble) -> (f32, f32) {
+    scrambled_2d(both_reversed(index.reversed), x, y)
+}
+
+#[inline(always)]
+fn scrambled_2d(both: u64, x: Scramble, y: Scramble) -> (f32, f32) {
+    let x = laine_karras_seeded(both as u32, x);
+    let y = laine_karras_seeded((both >> 32) as u32, y);
     (unit_of_reversed(x), unit_of_reversed(y))
 }
 
@@ -231,8 +272,8 @@ pub fn point_2d(index: Index, seeds: &Seeds) -> (f32, f32) {
 /// sequence: a (0,1)-sequence, stratified in every power-of-two prefix.
 #[inline]
 pub fn point_1d(index: Index, seeds: &Seeds) -> f32 {
-    let shuffled = both_reversed(laine_karras_seeded(index.0, seeds.shuffle)) as u32;
-    unit_of_reversed(laine_karras(shuffled, seeds.x))
+    let shuffled = laine_karras_seeded(index.premixed, seeds.shuffle);
+    unit_of_reversed(laine_karras_seeded(both_reversed(shuffled) as u32, seeds.x))
 }
 
 /// A 32-bit fraction as an f32 in [0, 1), rounded down to 24 bits.
@@ -285,9 +326,17 @@ mod tests {
     }
 
     /// pbrt-v4's `FastOwenScrambler` in one piece, as `premix`,
-    /// `Scramble::new` and `laine_karras_seeded` split it.
-    fn whole_laine_karras(mut v: u32, seed: u32) -> u32 {
-        v ^= v.wrapping_mul(0x3d20_adea);
+    /// `Scramble::new` and `laine_karras_seeded` split it; `carries: false`
+    /// takes the first multiply without carries, as the points' scrambles
+    /// do.
+    fn whole_laine_karras(mut v: u32, seed: u32, carries: bool) -> u32 {
+        v ^= if carries {
+            v.wrapping_mul(0x3d20_adea)
+        } else {
+            (0..32)
+                .filter(|k| (0x3d20_adea >> k) & 1 == 1)
+                .fold(0, |r, k| r ^ (v << k))
+        };
         v = v.wrapping_add(seed);
         v = v.wrapping_mul((seed >> 16) | 1);
         v ^= v.wrapping_mul(0x0552_6c56);
@@ -301,16 +350,24 @@ mod tests {
     /// `point_2d` never forms it: its table reads the hash's output
     /// directly.
     fn shuffle(reversed: u32, seed: u32) -> u32 {
-        whole_laine_karras(reversed, seed).reverse_bits()
+        whole_laine_karras(reversed, seed, true).reverse_bits()
     }
 
     /// The points as they were computed before the tables: three bit
     /// reversals per pair, dimension 1 multiplied out bit by bit, each hash
-    /// in one piece.
-    fn point_2d_by_reversals(reversed: u32, [shuffle_seed, x, y]: [u32; 3]) -> (f32, f32) {
-        let i = shuffle(reversed, shuffle_seed);
-        let x = whole_laine_karras(i, x).reverse_bits();
-        let y = whole_laine_karras(dimension_1(i).reverse_bits(), y).reverse_bits();
+    /// in one piece; `shuffled: false` as `point_2d_in_order`.
+    fn point_2d_by_reversals(
+        reversed: u32,
+        [shuffle_seed, x, y]: [u32; 3],
+        shuffled: bool,
+    ) -> (f32, f32) {
+        let i = if shuffled {
+            shuffle(reversed, shuffle_seed)
+        } else {
+            reversed.reverse_bits()
+        };
+        let x = whole_laine_karras(i, x, false).reverse_bits();
+        let y = whole_laine_karras(dimension_1(i).reverse_bits(), y, false).reverse_bits();
         (to_unit(x), to_unit(y))
     }
 
@@ -319,13 +376,16 @@ mod tests {
         let t = &MATRIX_BYTES;
         for index in [0u32, 1, 2, 3, 255, 256, 0x1234_5678, u32::MAX] {
             let v = both_reversed(index.reverse_bits());
-            assert_eq!(v as u32, index, "{index:#x}");
-            assert_eq!(((v >> 32) as u32).reverse_bits(), dimension_1(index));
+            assert_eq!(v as u32, linear_premix(index), "{index:#x}");
+            let y = linear_premix(dimension_1(index).reverse_bits());
+            assert_eq!((v >> 32) as u32, y);
             for x in [index, index.wrapping_mul(0x9e37_79b9)] {
                 assert_eq!(unit_of_reversed(x), to_unit(x.reverse_bits()), "{x:#x}");
             }
         }
-        assert_eq!(t[3][0x80], 1 | 1 << 32, "index bit 0");
+        // Index bit 0: both dimensions' reversed value 1, premixed.
+        let one = linear_premix(1) as u64;
+        assert_eq!(t[3][0x80], one | one << 32, "index bit 0");
         let mut h = 1u64;
         for k in 0..10_000u32 {
             h = h
@@ -338,24 +398,35 @@ mod tests {
                 y: Scramble::new(raw[2]),
             };
             let index = k.wrapping_mul(0x2545_f491);
-            let by_reversals = point_2d_by_reversals(index.reverse_bits(), raw);
+            let by_reversals = point_2d_by_reversals(index.reverse_bits(), raw, true);
             assert_eq!(point_2d(Index::new(index), &seeds), by_reversals);
             assert_eq!(point_1d(Index::new(index), &seeds), by_reversals.0);
+            let in_order = point_2d_by_reversals(index.reverse_bits(), raw, false);
+            let (x, y) = (seeds.x, seeds.y);
+            assert_eq!(point_2d_in_order(Index::new(index), x, y), in_order);
         }
     }
 
     #[test]
-    fn laine_karras_flips_each_bit_by_the_bits_below_only() {
+    fn both_hashes_flip_each_bit_by_the_bits_below_only() {
         // Changing bit j of the input leaves every bit below j as it was.
+        let shuffle = |v, s| laine_karras_seeded(premix(v), s);
+        let scramble = |v, s| laine_karras_seeded(linear_premix(v), s);
         for seed in [0u32, 1, 0xdead_beef] {
             for v in [0u32, 0x1234_5678, u32::MAX] {
-                let out = laine_karras(v, Scramble::new(seed));
-                assert_eq!(out, whole_laine_karras(v, seed));
-                for j in 0..32 {
-                    let changed = laine_karras(v ^ (1 << j), Scramble::new(seed));
-                    let below = (1u64 << j) as u32 - 1;
-                    assert_eq!(out & below, changed & below);
-                    assert_ne!(out & (1 << j), changed & (1 << j));
+                let s = Scramble::new(seed);
+                for (hash, carries) in [
+                    (&shuffle as &dyn Fn(u32, Scramble) -> u32, true),
+                    (&scramble, false),
+                ] {
+                    let out = hash(v, s);
+                    assert_eq!(out, whole_laine_karras(v, seed, carries));
+                    for j in 0..32 {
+                        let changed = hash(v ^ (1 << j), s);
+                        let below = (1u64 << j) as u32 - 1;
+                        assert_eq!(out & below, changed & below);
+                        assert_ne!(out & (1 << j), changed & (1 << j));
+                    }
                 }
             }
         }
