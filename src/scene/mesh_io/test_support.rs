@@ -80,6 +80,15 @@ pub(super) fn check_example(m: &Mesh) {
     assert_eq!(uvs[4], Vec2::new(0.5, 0.5));
 }
 
+/// Appends a value given as little-endian bytes in the file's byte order.
+pub(super) fn push_ordered(out: &mut Vec<u8>, little_endian: &[u8], be: bool) {
+    let at = out.len();
+    out.extend_from_slice(little_endian);
+    if be {
+        out[at..].reverse();
+    }
+}
+
 /// The ASCII example as binary, with the same types.
 pub(super) fn binary_example(be: bool, cut: usize) -> Vec<u8> {
     let format = if be {
@@ -90,13 +99,7 @@ pub(super) fn binary_example(be: bool, cut: usize) -> Vec<u8> {
     let header = ASCII.replace("format ascii", &format!("format {format}"));
     let header = &header[..header.find("end_header").unwrap() + 12];
     let mut out = header.as_bytes().to_vec();
-    let mut put = |b: &[u8]| {
-        let mut b = b.to_vec();
-        if be {
-            b.reverse();
-        }
-        out.extend_from_slice(&b);
-    };
+    let mut put = |b: &[u8]| push_ordered(&mut out, b, be);
     let verts: [([f32; 3], &[f32], [f32; 2]); 5] = [
         ([0.0, 0.0, 0.0], &[7.0, 8.0], [0.0, 0.0]),
         ([1.0, 0.0, 0.0], &[], [1.0, 0.0]),

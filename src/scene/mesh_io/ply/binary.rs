@@ -8,8 +8,9 @@ use super::trailing;
 use super::triangles::bulk_triangles;
 use crate::scene::mesh_io::fail::{fail_byte, short, Fail};
 
+/// The `N` bytes at the start of `b` in little-endian order.
 #[inline(always)]
-fn bytes<const N: usize, const BE: bool>(b: &[u8]) -> [u8; N] {
+pub(super) fn bytes<const N: usize, const BE: bool>(b: &[u8]) -> [u8; N] {
     let mut a: [u8; N] = b[..N].try_into().unwrap();
     if BE {
         a.reverse();

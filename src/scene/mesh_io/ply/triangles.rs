@@ -4,6 +4,7 @@
 //! Anything else, and any record that would be an error, leaves the body to
 //! the general reader, so the mesh and every error message are its own.
 
+use super::binary::bytes;
 use super::header::{Element, Kind, Ty};
 use super::plan::Role;
 use rayon::prelude::*;
@@ -66,14 +67,7 @@ fn read_chunk<const BE: bool>(
 ) -> bool {
     let mut good = true;
     for (slot, r) in out.iter_mut().zip(records.chunks_exact(RECORD)) {
-        let index = |k: usize| {
-            let b: [u8; 4] = r[1 + 4 * k..5 + 4 * k].try_into().expect("4 bytes");
-            if BE {
-                u32::from_be_bytes(b)
-            } else {
-                u32::from_le_bytes(b)
-            }
-        };
+        let index = |k: usize| u32::from_le_bytes(bytes::<4, BE>(&r[1 + 4 * k..]));
         let t = [index(0), index(1), index(2)];
         good &= (r[0] == 3)
             & ((t[0] as u64) < limit)
@@ -87,7 +81,7 @@ fn read_chunk<const BE: bool>(
 #[cfg(test)]
 mod tests {
     use crate::scene::mesh_io::load_mesh;
-    use crate::scene::mesh_io::test_support::{err, write};
+    use crate::scene::mesh_io::test_support::{err, push_ordered, write};
 
     /// A binary PLY of a 3×3 vertex grid and its 8 triangles, whose face
     /// records are `count` then the indices as `item` (`int` or `uint`).
@@ -100,27 +94,16 @@ mod tests {
             faces.len()
         )
         .into_bytes();
-        let mut put = |b: &[u8]| {
-            let mut b = b.to_vec();
-            if be {
-                b.reverse();
-            }
-            data.extend_from_slice(&b);
-        };
         for k in 0..9 {
             for c in [(k % 3) as f32, (k / 3) as f32, 0.0] {
-                put(&c.to_le_bytes());
+                push_ordered(&mut data, &c.to_le_bytes(), be);
             }
         }
         let faces_at = data.len();
         for (count, t) in faces {
             data.push(*count);
             for i in t {
-                let mut b = i.to_le_bytes();
-                if be {
-                    b.reverse();
-                }
-                data.extend_from_slice(&b);
+                push_ordered(&mut data, &i.to_le_bytes(), be);
             }
         }
         (data, faces_at)
