@@ -24,6 +24,7 @@ BOX = [  # (name, material, p0, p1, p2, p3)
     ("left", "red", (-1, 0, 1), (-1, 0, -1), (-1, 2, -1), (-1, 2, 1)),
     ("right", "green", (1, 0, -1), (1, 0, 1), (1, 2, 1), (1, 2, -1)),
 ]
+SAMPLERS = ["independent", "stratified", "multijitter", "ldsampler", "orthogonal"]
 LIGHT = ((-0.25, 1.98, -0.25), (0.25, 1.98, -0.25), (0.25, 1.98, 0.25), (-0.25, 1.98, 0.25))
 
 
@@ -43,7 +44,7 @@ def diffuse(rgb):
     return {"type": "twosided", "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": rgb}}}
 
 
-def scene(name, assets, spp, resolution=512, mesh=None):
+def scene(name, assets, spp, resolution=512, mesh=None, sampler="independent"):
     s = {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": 5, "rr_depth": 5, "hide_emitters": False},
@@ -52,7 +53,7 @@ def scene(name, assets, spp, resolution=512, mesh=None):
             "fov": 40,
             "fov_axis": "y",
             "to_world": mi.ScalarTransform4f().look_at(origin=[0, 1, 3.7], target=[0, 1, 0], up=[0, 1, 0]),
-            "sampler": {"type": "independent", "sample_count": spp},
+            "sampler": {"type": sampler, "sample_count": spp},
             "film": {"type": "hdrfilm", "width": resolution, "height": resolution, "pixel_format": "rgb",
                      "component_format": "float32", "rfilter": {"type": "box"}},
         },
@@ -85,6 +86,8 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("scene", choices=["cornell-point", "cornell-area", "bunny"])
     parser.add_argument("--variant", default="llvm_ad_rgb")
+    parser.add_argument("--sampler", default="independent", choices=SAMPLERS)
+    parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--spp", type=int, default=64)
     parser.add_argument("--assets", default=os.environ.get("LUZ_ASSETS", "../shared/assets"))
     parser.add_argument("--resolution", type=int, default=512, help="image width and height")
@@ -97,16 +100,16 @@ def main():
     mi.set_variant(args.variant)
     if args.threads:
         dr.set_thread_count(args.threads)
-    loaded = mi.load_dict(scene(args.scene, args.assets, args.spp, args.resolution, args.mesh))
+    loaded = mi.load_dict(scene(args.scene, args.assets, args.spp, args.resolution, args.mesh, args.sampler))
     if not args.whole:
         mi.render(loaded, spp=1)  # warm-up: JIT compilation
     start = time.perf_counter()
     # spp given again: the warm-up's spp=1 sticks to the sampler otherwise.
-    image = mi.render(loaded, seed=0, spp=args.spp)
+    image = mi.render(loaded, seed=args.seed, spp=args.spp)
     # Dr.Jit evaluates lazily: reading a value back waits for the render.
     float(dr.sum(image.array)[0])
     elapsed = time.perf_counter() - start
-    print(f"{args.scene} {args.variant} {args.spp} spp: {elapsed:.3f} s")
+    print(f"{args.scene} {args.variant} {args.sampler} {args.spp} spp: {elapsed:.3f} s")
     if args.output:
         mi.util.write_bitmap(args.output, image)
 
