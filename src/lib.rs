@@ -10,6 +10,7 @@ pub mod image;
 pub mod job;
 mod location;
 pub mod math;
+mod memory;
 mod names;
 pub mod render;
 pub mod sampling;

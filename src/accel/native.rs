@@ -24,6 +24,7 @@ use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay, PADDING};
 use super::Tree;
 use crate::geometry::{exact_zeros, has_zero_area, Geometry, Mesh, PreliminaryHit, ShearedRay};
 use crate::math::{Aabb, Ray, Vec3};
+use crate::memory;
 use crate::scene::Shape;
 use crate::simd::F4;
 use rayon::prelude::*;
@@ -186,6 +187,7 @@ impl<'a> Triangles<'a> {
 
     /// The packs of the triangles in slot order `order`.
     fn packs(&self, order: &[u32]) -> Vec<TriPack> {
+        let mut packs = memory::vec_with_capacity(order.len().div_ceil(4));
         order
             .par_chunks(4)
             .with_min_len(1024)
@@ -205,7 +207,8 @@ impl<'a> Triangles<'a> {
                 }
                 pack
             })
-            .collect()
+            .collect_into_vec(&mut packs);
+        packs
     }
 }
 

@@ -14,6 +14,7 @@
 
 use super::{usable, Preset, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::Aabb;
+use crate::memory;
 use glam::Vec4;
 use rayon::prelude::*;
 
@@ -385,15 +386,28 @@ fn median_split(refs: &mut [PrimRef], centroids: &Bounds) -> usize {
 
 /// Bounds of every finite, non-empty box as references, in index order.
 pub(super) fn prim_refs(count: usize, box_of: impl Fn(usize) -> Aabb + Sync) -> Vec<PrimRef> {
+    // Written in place (a filtered collect would copy every reference once
+    // more); an unusable box's reference is marked in the ignored `max.w`
+    // and removed after, which is rare.
+    let mut refs = memory::vec_with_capacity(count);
     (0..count)
         .into_par_iter()
         .with_min_len(PARALLEL_THRESHOLD)
-        .filter_map(|i| {
+        .map(|i| {
             let b = box_of(i);
-            usable(&b).then(|| PrimRef::new(&b, i as u32))
+            let mut r = PrimRef::new(&b, i as u32);
+            r.max.w = if usable(&b) { 0.0 } else { UNUSABLE };
+            r
         })
-        .collect()
+        .collect_into_vec(&mut refs);
+    if refs.par_iter().any(|r| r.max.w == UNUSABLE) {
+        refs.retain(|r| r.max.w != UNUSABLE);
+    }
+    refs
 }
+
+/// `max.w` of a reference to leave out.
+const UNUSABLE: f32 = 1.0;
 
 /// In-place partition: elements satisfying `left` first; returns their count.
 fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> usize {

@@ -46,6 +46,7 @@ mod traverse;
 pub use traverse::TravRay;
 
 use crate::math::Aabb;
+use crate::memory;
 use build::{prim_refs, BuildCtx, PrimRef};
 use collapse::Collapse;
 use node::Node4;
@@ -190,9 +191,9 @@ impl Bvh {
             };
         }
         let mut out = Collapse {
-            nodes: Vec::with_capacity(order.len() / 2 + 1),
+            nodes: memory::vec_with_capacity(order.len() / 2 + 1),
             src: &order,
-            slots: Vec::with_capacity(order.len() + order.len() / 2),
+            slots: memory::vec_with_capacity(order.len() + order.len() / 2),
             align,
         };
         let depth = out.node(&root, 1);

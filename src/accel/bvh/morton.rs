@@ -11,12 +11,16 @@
 use super::build::BuildNode;
 use super::{usable, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::{Aabb, Vec3};
+use crate::memory;
 use rayon::prelude::*;
 
 /// Bits per axis of the Morton code.
 const BITS: u32 = 10;
 /// Its highest bit.
 const TOP: i32 = 3 * BITS as i32 - 1;
+/// The key of a primitive left out: no code reaches the high half's top
+/// bits.
+const UNUSABLE: u64 = u64::MAX;
 
 /// The tree over the finite, non-empty boxes among `box_of(0..count)`,
 /// with leaves of at most `max_leaf` primitives; and the primitive of each
@@ -41,16 +45,23 @@ pub(super) fn build(
         .recip()
         .min(Vec3::splat(f32::MAX))
         * cells;
-    let mut keys: Vec<u64> = (0..count)
+    // Written in place (a filtered collect would copy them all once more)
+    // with unusable boxes as `UNUSABLE`, which sorts them last.
+    let mut keys: Vec<u64> = memory::vec_with_capacity(count);
+    (0..count)
         .into_par_iter()
         .with_min_len(PARALLEL_THRESHOLD)
-        .filter_map(|i| {
-            let q = ((valid(i)?.centroid() - centroids.min) * scale).max(Vec3::ZERO);
-            let code = spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2;
-            Some((code as u64) << 32 | i as u64)
+        .map(|i| match valid(i) {
+            Some(b) => {
+                let q = ((b.centroid() - centroids.min) * scale).max(Vec3::ZERO);
+                let code = spread(q.x as u32) | spread(q.y as u32) << 1 | spread(q.z as u32) << 2;
+                (code as u64) << 32 | i as u64
+            }
+            None => UNUSABLE,
         })
-        .collect();
+        .collect_into_vec(&mut keys);
     keys.par_sort_unstable();
+    keys.truncate(keys.partition_point(|&k| k != UNUSABLE));
     let emit = Emit {
         keys: &keys,
         box_of,
@@ -58,7 +69,10 @@ pub(super) fn build(
         align,
     };
     let root = emit.node(0, keys.len(), TOP, 0).1;
-    let order = keys.par_iter().map(|&k| k as u32).collect();
+    let mut order = memory::vec_with_capacity(keys.len());
+    keys.par_iter()
+        .map(|&k| k as u32)
+        .collect_into_vec(&mut order);
     (root, order)
 }
 
