@@ -1,6 +1,7 @@
 //! The mesh a PLY body's records are read into.
 
 use crate::math::{Vec2, Vec3};
+use crate::memory;
 use crate::scene::mesh_io::checks::check_finite;
 
 pub(super) struct Builder {
@@ -20,8 +21,8 @@ impl Builder {
     pub(super) fn new(nv: usize, nf: usize, has_uv: bool, body_len: usize) -> Builder {
         // Counts come from the file; never reserve more than the body could hold.
         Builder {
-            positions: Vec::with_capacity(nv.min(body_len / 3)),
-            uvs: has_uv.then(|| Vec::with_capacity(nv.min(body_len / 5))),
+            positions: memory::vec_with_capacity(nv.min(body_len / 3)),
+            uvs: has_uv.then(|| memory::vec_with_capacity(nv.min(body_len / 5))),
             indices: Vec::with_capacity(nf.min(body_len / 4)),
             nv: nv as u32,
             poly: Vec::new(),

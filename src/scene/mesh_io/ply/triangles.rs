@@ -7,6 +7,7 @@
 use super::binary::bytes;
 use super::header::{Element, Kind, Ty};
 use super::plan::Role;
+use crate::memory;
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
 
@@ -42,7 +43,7 @@ pub(super) fn bulk_triangles<const BE: bool>(
         Ty::I32 => vertices.min(1 << 31),
         _ => vertices,
     } as u64;
-    let mut indices: Vec<[u32; 3]> = Vec::with_capacity(el.count);
+    let mut indices: Vec<[u32; 3]> = memory::vec_with_capacity(el.count);
     let all_good = indices.spare_capacity_mut()[..el.count]
         .par_chunks_mut(CHUNK)
         .zip(records.par_chunks(CHUNK * RECORD))
