@@ -63,15 +63,13 @@ pub(super) fn binary_body<const BE: bool>(
         });
         pos = match stride {
             Some(stride) => fixed_records::<BE>(data, pos, stride, el, roles, out)?,
-            None => match bulk_triangles::<BE>(data, pos, el, roles, out.vertex_count()) {
-                Some((indices, end)) => {
-                    // Only the one face element has the indices' role.
-                    debug_assert!(out.indices.is_empty());
-                    out.indices = indices;
-                    end
+            None => {
+                let vertices = out.vertex_count();
+                match bulk_triangles::<BE>(data, pos, el, roles, vertices, &mut out.indices) {
+                    Some(end) => end,
+                    None => list_records::<BE>(data, pos, el, roles, out)?,
                 }
-                None => list_records::<BE>(data, pos, el, roles, out)?,
-            },
+            }
         };
     }
     if pos < data.len() {

@@ -23,7 +23,7 @@ impl Builder {
         Builder {
             positions: memory::vec_with_capacity(nv.min(body_len / 3)),
             uvs: has_uv.then(|| memory::vec_with_capacity(nv.min(body_len / 5))),
-            indices: Vec::with_capacity(nf.min(body_len / 4)),
+            indices: memory::vec_with_capacity(nf.min(body_len / 4)),
             nv: nv as u32,
             poly: Vec::new(),
             base: 0,

@@ -7,7 +7,6 @@
 use super::binary::bytes;
 use super::header::{Element, Kind, Ty};
 use super::plan::Role;
-use crate::memory;
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
 
@@ -18,17 +17,20 @@ const RECORD: usize = 1 + 3 * 4;
 /// noise, small enough that two threads share the work evenly.
 const CHUNK: usize = 1 << 16;
 
-/// The triangles of `el` (a face element of `roles`) read from `data` at
-/// `pos`, with indices below `vertices`, and the offset after them; `None`
-/// when the element is not in the bulk layout, the file is too short, or a
-/// record has another count or an index out of range.
+/// Reads the triangles of `el` (a face element of `roles`) from `data` at
+/// `pos`, with indices below `vertices`, into `indices` (empty: the one
+/// face element's), and returns the offset after them; `None`, with
+/// `indices` still empty, when the element is not in the bulk layout, the
+/// file is too short, or a record has another count or an index out of
+/// range.
 pub(super) fn bulk_triangles<const BE: bool>(
     data: &[u8],
     pos: usize,
     el: &Element,
     roles: &[Role],
     vertices: usize,
-) -> Option<(Vec<[u32; 3]>, usize)> {
+    indices: &mut Vec<[u32; 3]>,
+) -> Option<usize> {
     let [p] = el.props.as_slice() else {
         return None;
     };
@@ -43,7 +45,9 @@ pub(super) fn bulk_triangles<const BE: bool>(
         Ty::I32 => vertices.min(1 << 31),
         _ => vertices,
     } as u64;
-    let mut indices: Vec<[u32; 3]> = memory::vec_with_capacity(el.count);
+    debug_assert!(indices.is_empty());
+    // The builder reserved the header's face count already.
+    indices.reserve_exact(el.count);
     let all_good = indices.spare_capacity_mut()[..el.count]
         .par_chunks_mut(CHUNK)
         .zip(records.par_chunks(CHUNK * RECORD))
@@ -54,7 +58,7 @@ pub(super) fn bulk_triangles<const BE: bool>(
     }
     // SAFETY: `read_chunk` wrote every one of the `el.count` slots.
     unsafe { indices.set_len(el.count) };
-    Some((indices, end))
+    Some(end)
 }
 
 /// Writes the triangle of each record of `records` into `out` (one slot
