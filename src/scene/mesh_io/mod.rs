@@ -73,7 +73,7 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
 /// it does not read, triangles it dropped, and why): empty for a file read
 /// whole. The path must be a regular file.
 pub fn read_mesh(path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
-    let data = crate::location::read_regular_file(path).map_err(|source| MeshError::Io {
+    let data = crate::location::map_regular_file(path).map_err(|source| MeshError::Io {
         path: path.to_path_buf(),
         source,
     })?;
