@@ -376,6 +376,51 @@ mod tests {
         }
     }
 
+    /// A body large enough to be mapped and copied in many parallel chunks
+    /// reads back exactly, and of two bad vertices in different chunks the
+    /// error names the first, wherever the chunks finish.
+    #[test]
+    fn large_packed_positions_name_the_first_bad_vertex() {
+        let n = 700_000usize;
+        let mut data = format!(
+            "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\n\
+             property float y\nproperty float z\nelement face 1\n\
+             property list uchar int vertex_indices\nend_header\n"
+        )
+        .into_bytes();
+        let body = data.len();
+        let vertex = |k: usize| [k as f32, (k % 7) as f32, -(k as f32)];
+        for k in 0..n {
+            for c in vertex(k) {
+                data.extend_from_slice(&c.to_le_bytes());
+            }
+        }
+        data.push(3);
+        for i in [0i32, 1, n as i32 - 1] {
+            data.extend_from_slice(&i.to_le_bytes());
+        }
+        assert!(
+            data.len() > 8 << 20,
+            "the file must be large enough to be mapped"
+        );
+        let m = load_mesh(&write("big.ply", &data)).unwrap();
+        assert_eq!(m.positions.len(), n);
+        assert!((0..n).all(|k| m.positions[k].to_array() == vertex(k)));
+        assert_eq!(m.indices, vec![[0, 1, n as u32 - 1]]);
+
+        for (k, c) in [(650_001usize, f32::NAN), (400_003, f32::INFINITY)] {
+            data[body + 12 * k + 4..body + 12 * k + 8].copy_from_slice(&c.to_le_bytes());
+        }
+        let e = err("big-bad.ply", &data);
+        assert_eq!(
+            e,
+            format!(
+                ": byte {}: vertex 400003: coordinates must be finite, got (400003, inf, -400003)",
+                body + 12 * 400_003
+            )
+        );
+    }
+
     #[test]
     fn binary_errors() {
         for be in [false, true] {
