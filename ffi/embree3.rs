@@ -1416,16 +1416,6 @@ extern "C" {
     pub fn rtcSetGeometryBuildQuality(geometry: RTCGeometry, quality: RTCBuildQuality);
 }
 extern "C" {
-    pub fn rtcSetNewGeometryBuffer(
-        geometry: RTCGeometry,
-        type_: RTCBufferType,
-        slot: core::ffi::c_uint,
-        format: RTCFormat,
-        byteStride: usize,
-        itemCount: usize,
-    ) -> *mut core::ffi::c_void;
-}
-extern "C" {
     pub fn rtcSetSharedGeometryBuffer(
         geometry: RTCGeometry,
         type_: RTCBufferType,
@@ -1436,6 +1426,16 @@ extern "C" {
         byteStride: usize,
         itemCount: usize,
     );
+}
+extern "C" {
+    pub fn rtcSetNewGeometryBuffer(
+        geometry: RTCGeometry,
+        type_: RTCBufferType,
+        slot: core::ffi::c_uint,
+        format: RTCFormat,
+        byteStride: usize,
+        itemCount: usize,
+    ) -> *mut core::ffi::c_void;
 }
 extern "C" {
     pub fn rtcSetGeometryUserData(geometry: RTCGeometry, ptr: *mut core::ffi::c_void);
@@ -1476,6 +1476,15 @@ extern "C" {
 }
 extern "C" {
     pub fn rtcCommitScene(scene: RTCScene);
+}
+pub type RTCProgressMonitorFunction =
+    ::core::option::Option<unsafe extern "C" fn(ptr: *mut core::ffi::c_void, n: f64) -> bool>;
+extern "C" {
+    pub fn rtcSetSceneProgressMonitorFunction(
+        scene: RTCScene,
+        progress: RTCProgressMonitorFunction,
+        ptr: *mut core::ffi::c_void,
+    );
 }
 extern "C" {
     pub fn rtcSetSceneBuildQuality(scene: RTCScene, quality: RTCBuildQuality);

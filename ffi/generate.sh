@@ -21,13 +21,14 @@ header="$include/embree3/rtcore.h"
 
 functions='rtcNewDevice|rtcRetainDevice|rtcReleaseDevice|rtcGetDeviceProperty|rtcGetDeviceError|rtcSetDeviceErrorFunction'
 functions+='|rtcNewScene|rtcReleaseScene|rtcSetSceneBuildQuality|rtcSetSceneFlags|rtcAttachGeometryByID|rtcCommitScene'
+functions+='|rtcSetSceneProgressMonitorFunction'
 functions+='|rtcIntersect1|rtcOccluded1'
 functions+='|rtcNewGeometry|rtcReleaseGeometry|rtcCommitGeometry|rtcSetGeometryBuildQuality|rtcSetNewGeometryBuffer|rtcSetSharedGeometryBuffer'
 functions+='|rtcSetGeometryUserData|rtcSetGeometryUserPrimitiveCount|rtcSetGeometryBoundsFunction'
 functions+='|rtcSetGeometryIntersectFunction|rtcSetGeometryOccludedFunction'
 types='RTC(Ray|Hit|RayHit|RayN|RayHitN|HitN|IntersectContext|Bounds|Error|DeviceProperty|Format|BufferType'
 types+='|GeometryType|BuildQuality|SceneFlags|IntersectContextFlags|FilterFunctionNArguments'
-types+='|BoundsFunctionArguments|IntersectFunctionNArguments|OccludedFunctionNArguments)'
+types+='|BoundsFunctionArguments|IntersectFunctionNArguments|OccludedFunctionNArguments|ProgressMonitorFunction)'
 
 bindgen "$header" \
     --allowlist-function "($functions)" \

@@ -11,6 +11,7 @@ pub mod job;
 mod location;
 pub mod math;
 mod memory;
+pub mod meter;
 mod names;
 pub mod render;
 pub mod sampling;

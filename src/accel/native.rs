@@ -25,6 +25,7 @@ use super::Tree;
 use crate::geometry::{exact_zeros, has_zero_area, Geometry, Mesh, PreliminaryHit, ShearedRay};
 use crate::math::{Aabb, Ray, Vec3};
 use crate::memory;
+use crate::meter::{Step, StepKind};
 use crate::scene::Shape;
 use crate::simd::F4;
 use rayon::prelude::*;
@@ -242,6 +243,11 @@ impl NativeBackend {
                 }
             }
         }
+        let _step = Step::begin(
+            StepKind::BuildTree { backend: "rust" },
+            meshes.count() as u64,
+        );
+        let progress = Step::current();
         let (tri_bvh, analytic_bvh) = rayon::join(
             || {
                 let settings = BuildSettings {
@@ -249,7 +255,7 @@ impl NativeBackend {
                     align: 4,
                     leaf_cost: 1.0,
                 };
-                Bvh::build_over(meshes.count(), |i| meshes.bounds(i), &settings)
+                Bvh::build_reporting(meshes.count(), |i| meshes.bounds(i), &settings, &progress)
             },
             // An analytic shape costs more than a box test: small leaves.
             || {

@@ -10,12 +10,14 @@ use crate::distributed::part::{self, PartMeta};
 use crate::distributed::passes::{render_passes, Outcome, PassTiming};
 use crate::distributed::task::{self, Task};
 use crate::image::io::{self as imageio, WriteOptions};
+use crate::meter::Meter;
 use crate::render::film::ErrorEstimate;
 use crate::render::{Film, Progress, RenderOptions, RenderStats, Sampling};
 use crate::sampling::SamplerKind;
 use crate::scene::{LoadOptions, Scene, SceneError};
 use std::ops::Range;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// What the command line may override in the scene file.
@@ -120,6 +122,11 @@ pub enum Stage {
 /// Whoever shows the job's progress.
 pub trait Observer: Progress {
     fn stage_done(&self, _stage: Stage, _time: Duration) {}
+    /// Who is told of the steps of loading and building (a mesh read, a
+    /// tree built) as they go.
+    fn meter(&self) -> Option<Arc<dyn Meter>> {
+        None
+    }
     fn task_chosen(&self, _task: &Task, _samples: &Range<u32>) {}
     /// Rendering starts: `steps` rows of one sample each are to come, of
     /// `samples_per_step` samples.
@@ -129,6 +136,14 @@ pub trait Observer: Progress {
 }
 
 impl Observer for () {}
+
+/// Runs `work` with the observer's meter, if it has one.
+fn metered_by<R>(observer: &dyn Observer, work: impl FnOnce() -> R) -> R {
+    match observer.meter() {
+        Some(meter) => crate::meter::metered(meter, work),
+        None => work(),
+    }
+}
 
 /// `luz render`, as parsed from its arguments.
 #[derive(Clone, Debug)]
@@ -222,7 +237,7 @@ impl RenderJob {
         let mut checkpoint = Checkpoint::claim(&checkpoint_path, self.resume.as_deref())?;
 
         let load_start = Instant::now();
-        let scene = std::sync::Arc::new(self.overrides.load(&self.scene)?);
+        let scene = Arc::new(metered_by(observer, || self.overrides.load(&self.scene))?);
         let load_time = load_start.elapsed();
         observer.stage_done(Stage::Loaded, load_time);
         let scene_files: Vec<(Role, &Path)> = scene
@@ -256,7 +271,7 @@ impl RenderJob {
         }
 
         let build_start = Instant::now();
-        let accel = Accel::build(&scene, self.backend, &self.build)?;
+        let accel = metered_by(observer, || Accel::build(&scene, self.backend, &self.build))?;
         let build_time = build_start.elapsed();
         observer.stage_done(Stage::Built, build_time);
 

@@ -12,9 +12,11 @@
 //! Binning is parallel too (per chunk, then merged) where a node is large,
 //! so the first splits, which see every primitive, use every thread.
 
+use super::progress::{report_parallel_leaf, report_serial_child, report_serial_root};
 use super::{usable, Preset, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::Aabb;
 use crate::memory;
+use crate::meter::Reporter;
 use glam::Vec4;
 use rayon::prelude::*;
 
@@ -100,9 +102,10 @@ pub(super) enum BuildNode {
     },
 }
 
-pub(super) struct BuildCtx {
+pub(super) struct BuildCtx<'a> {
     pub(super) preset: Preset,
     pub(super) align: usize,
+    pub(super) progress: &'a Reporter,
 }
 
 enum Split {
@@ -217,12 +220,14 @@ fn bounds_of(refs: &[PrimRef]) -> (Bounds, Bounds) {
     )
 }
 
-impl BuildCtx {
+impl BuildCtx<'_> {
     /// Builds the tree over `refs` (slots `first..first + refs.len()`), at
     /// binary depth `depth`; `bounds` are those of `refs`.
     pub(super) fn build(&self, refs: &mut [PrimRef], first: usize, depth: usize) -> BuildNode {
         let (bounds, centroids) = bounds_of(refs);
-        self.build_in(refs, first, depth, bounds, centroids).1
+        let root = self.build_in(refs, first, depth, bounds, centroids).1;
+        report_serial_root(self.progress, refs.len());
+        root
     }
 
     fn build_in(
@@ -251,7 +256,10 @@ impl BuildCtx {
         };
         let mid = match split {
             Split::At(mid) => mid,
-            Split::Leaf => return (bounds.aabb(), leaf),
+            Split::Leaf => {
+                report_parallel_leaf(self.progress, n);
+                return (bounds.aabb(), leaf);
+            }
             Split::Unsplittable if n <= self.preset.max_leaf => return (bounds.aabb(), leaf),
             Split::Unsplittable => median_split(refs, &centroids),
         };
@@ -261,7 +269,12 @@ impl BuildCtx {
             self.build_in(refs, first, depth + 1, b, c)
         };
         let (left, right) = if n >= PARALLEL_THRESHOLD {
-            rayon::join(|| build(l, first), || build(r, first + mid))
+            let reported = |refs: &mut [PrimRef], first: usize| {
+                let built = build(refs, first);
+                report_serial_child(self.progress, refs.len());
+                built
+            };
+            rayon::join(|| reported(l, first), || reported(r, first + mid))
         } else {
             (build(l, first), build(r, first + mid))
         };

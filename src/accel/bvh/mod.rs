@@ -41,12 +41,14 @@ mod build;
 mod collapse;
 mod morton;
 mod node;
+mod progress;
 mod traverse;
 
 pub use traverse::TravRay;
 
 use crate::math::Aabb;
 use crate::memory;
+use crate::meter::Reporter;
 use build::{prim_refs, BuildCtx, PrimRef};
 use collapse::Collapse;
 use node::Node4;
@@ -170,6 +172,17 @@ impl Bvh {
         box_of: impl Fn(usize) -> Aabb + Sync,
         settings: &BuildSettings,
     ) -> Bvh {
+        Self::build_reporting(count, box_of, settings, &Reporter::none())
+    }
+
+    /// As `build_over`, telling `progress` of every usable primitive once
+    /// it is in a finished subtree.
+    pub(crate) fn build_reporting(
+        count: usize,
+        box_of: impl Fn(usize) -> Aabb + Sync,
+        settings: &BuildSettings,
+        progress: &Reporter,
+    ) -> Bvh {
         let align = settings.align.clamp(1, 16);
         let mut preset = settings.quality.preset();
         preset.max_leaf = preset.max_leaf.div_ceil(align) * align;
@@ -177,10 +190,15 @@ impl Bvh {
             preset.pack_cost = settings.leaf_cost;
         }
         let (root, order) = if settings.quality == BuildQuality::Low {
-            morton::build(count, &box_of, preset.max_leaf, align)
+            morton::build(count, &box_of, preset.max_leaf, align, progress)
         } else {
             let mut refs = prim_refs(count, box_of);
-            let root = BuildCtx { preset, align }.build(&mut refs, 0, 0);
+            let root = BuildCtx {
+                preset,
+                align,
+                progress,
+            }
+            .build(&mut refs, 0, 0);
             (root, refs.iter().map(PrimRef::index).collect())
         };
         if order.is_empty() {

@@ -9,9 +9,11 @@
 //! collapsed, padded and traversed by the same code.
 
 use super::build::BuildNode;
+use super::progress::{report_serial_child, report_serial_root};
 use super::{usable, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::{Aabb, Vec3};
 use crate::memory;
+use crate::meter::Reporter;
 use rayon::prelude::*;
 
 /// Bits per axis of the Morton code.
@@ -33,6 +35,7 @@ pub(super) fn build(
     box_of: &(impl Fn(usize) -> Aabb + Sync),
     max_leaf: usize,
     align: usize,
+    progress: &Reporter,
 ) -> (BuildNode, Vec<u32>) {
     let valid = |i: usize| Some(box_of(i)).filter(usable);
     let centroids = (0..count)
@@ -67,8 +70,10 @@ pub(super) fn build(
         box_of,
         max_leaf,
         align,
+        progress,
     };
     let root = emit.node(0, keys.len(), TOP, 0).1;
+    report_serial_root(progress, keys.len());
     let mut order = memory::vec_with_capacity(keys.len());
     keys.par_iter()
         .map(|&k| k as u32)
@@ -94,6 +99,7 @@ struct Emit<'a, F> {
     /// so leaves fill whole packs: a primitive or two on the wrong side of
     /// a Morton split costs less than padding a third of the packs.
     align: usize,
+    progress: &'a Reporter,
 }
 
 impl<F: Fn(usize) -> Aabb + Sync> Emit<'_, F> {
@@ -120,10 +126,12 @@ impl<F: Fn(usize) -> Aabb + Sync> Emit<'_, F> {
             _ => (mid, below),
         };
         let (left, right) = if n >= PARALLEL_THRESHOLD {
-            rayon::join(
-                || self.node(first, mid, below, depth + 1),
-                || self.node(first + mid, n - mid, below, depth + 1),
-            )
+            let reported = |first: usize, n: usize| {
+                let built = self.node(first, n, below, depth + 1);
+                report_serial_child(self.progress, n);
+                built
+            };
+            rayon::join(|| reported(first, mid), || reported(first + mid, n - mid))
         } else {
             (
                 self.node(first, mid, below, depth + 1),

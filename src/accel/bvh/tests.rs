@@ -322,3 +322,53 @@ fn depth_guard(quality: BuildQuality) {
     });
     assert_eq!(hit.map(|h| h.2), Some(0));
 }
+
+/// Every preset tells the step in progress of each usable primitive
+/// exactly once: a tree built serially from its root, one past the
+/// parallel threshold, and one with unusable boxes among the rest.
+#[test]
+fn builds_report_each_usable_primitive_once() {
+    use crate::meter::test_support::Recorder;
+    use crate::meter::{Step, StepKind};
+    let mut rng = Rng::new(11, 1);
+    let point = |rng: &mut Rng| Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 100.0;
+    for n in [100usize, 3 * PARALLEL_THRESHOLD + 17, 50_000] {
+        let mut boxes: Vec<Aabb> = (0..n)
+            .map(|_| {
+                let p = point(&mut rng);
+                Aabb::from_points(&[p, p + Vec3::splat(0.5)])
+            })
+            .collect();
+        if n == 50_000 {
+            for b in boxes.iter_mut().step_by(9) {
+                *b = Aabb::EMPTY;
+            }
+        }
+        let usable = boxes.iter().filter(|b| usable(b)).count() as u64;
+        for quality in QUALITIES {
+            let settings = BuildSettings {
+                quality,
+                ..BuildSettings::default()
+            };
+            let (bvh, events) = Recorder::record(|| {
+                let _step = Step::begin(StepKind::BuildTree { backend: "rust" }, n as u64);
+                Bvh::build_reporting(n, |i| boxes[i], &settings, &Step::current())
+            });
+            let steps = crate::meter::test_support::steps(&events);
+            assert_eq!(steps.len(), 1, "{quality:?} {n}");
+            let (_, total, done, reports) = &steps[0];
+            assert_eq!((*total, *done), (n as u64, usable), "{quality:?} {n}");
+            assert!(
+                n < PARALLEL_THRESHOLD || *reports > 2,
+                "{quality:?} {n}: {reports}"
+            );
+            assert_eq!(
+                bvh.primitive_indices()
+                    .iter()
+                    .filter(|&&p| p != PADDING)
+                    .count() as u64,
+                usable
+            );
+        }
+    }
+}

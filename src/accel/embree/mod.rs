@@ -32,6 +32,7 @@ use self::sys3 as sys;
 use super::{AccelError, BuildOptions, EmbreeQuality, Tree, Work};
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray};
+use crate::meter::{Step, StepKind};
 use crate::scene::Scene;
 use std::sync::Arc;
 
@@ -108,7 +109,12 @@ impl EmbreeBackend {
             device.attach(&rtc, &geom, id)?;
             empty = false;
         }
-        device.commit(&rtc)?;
+        let in_tree = scene.shapes.iter().zip(in_root).filter(|(_, &r)| !r);
+        let primitives = in_tree
+            .map(|(s, _)| s.geometry.primitive_count())
+            .sum::<usize>() as u64;
+        let _step = Step::begin(StepKind::BuildTree { backend: "embree" }, primitives);
+        device.commit(&rtc, Step::current(), primitives)?;
         Ok(Self {
             rtc,
             device,
@@ -256,6 +262,49 @@ mod tests {
             assert!(b.closest(&down(3.0)).is_none());
             assert_eq!(b.version().split('.').next(), Some("3"));
         }
+    }
+
+    /// The build is one step counting the tree's primitives (the sphere's
+    /// one and the grid's triangles), never more than all of them.
+    #[test]
+    fn builds_are_one_metered_step() {
+        use crate::meter::test_support::{steps, Recorder};
+        let side = 300u32;
+        let positions = (0..=side)
+            .flat_map(|y| (0..=side).map(move |x| Vec3::new(x as f32, y as f32, -3.0)))
+            .collect();
+        let at = |x: u32, y: u32| y * (side + 1) + x;
+        let indices = (0..side)
+            .flat_map(|y| {
+                (0..side).flat_map(move |x| {
+                    [
+                        [at(x, y), at(x + 1, y), at(x, y + 1)],
+                        [at(x + 1, y), at(x + 1, y + 1), at(x, y + 1)],
+                    ]
+                })
+            })
+            .collect();
+        let scene = scene_of(vec![
+            Geometry::Sphere(Sphere {
+                center: Vec3::new(0.0, 0.0, -5.0),
+                radius: 1.0,
+            }),
+            Geometry::Mesh(Mesh {
+                positions,
+                indices,
+                uvs: None,
+            }),
+        ]);
+        let (built, events) = Recorder::record(|| build(scene, &[false, false]));
+        assert!(built.is_ok());
+        let steps = steps(&events);
+        let primitives = 1 + 2 * (side * side) as u64;
+        assert_eq!(steps.len(), 1, "{events:?}");
+        assert_eq!(
+            (steps[0].0.as_str(), steps[0].1),
+            ("build embree", primitives)
+        );
+        assert!(steps[0].2 <= primitives, "{steps:?}");
     }
 
     #[test]

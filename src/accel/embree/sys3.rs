@@ -21,7 +21,9 @@ use super::error::{EmbreeError, ErrorCode, Report};
 use crate::accel::EmbreeQuality;
 use crate::geometry::PreliminaryHit;
 use crate::math::{Ray, Vec3};
+use crate::meter::Reporter;
 use std::ffi::{c_char, c_uint, c_void, CStr, CString};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Mutex;
 use user::{bounds_fn, intersect_fn, occluded_fn};
 
@@ -84,6 +86,29 @@ fn raw_quality(quality: EmbreeQuality) -> RTCBuildQuality {
 #[derive(Default)]
 struct ErrorSink {
     reports: Mutex<Vec<Report>>,
+}
+
+/// Where Embree's build progress goes during a commit.
+struct BuildMonitor {
+    progress: Reporter,
+    total: u64,
+    /// The units reported so far.
+    done: AtomicU64,
+}
+
+/// Embree's progress monitor: `n` is the fraction of the build done, from
+/// any of Embree's threads, not necessarily in order.
+unsafe extern "C" fn report_build(ptr: *mut c_void, n: f64) -> bool {
+    // SAFETY: `ptr` is the `BuildMonitor` of `Device::commit`, alive for the
+    // whole commit.
+    let monitor = unsafe { &*(ptr as *const BuildMonitor) };
+    let now = (n.clamp(0.0, 1.0) * monitor.total as f64) as u64;
+    let before = monitor.done.fetch_max(now, Ordering::Relaxed);
+    if now > before {
+        monitor.progress.advance((now - before) as usize);
+    }
+    // Go on building.
+    true
 }
 
 unsafe extern "C" fn record_error(user_ptr: *mut c_void, code: RTCError, message: *const c_char) {
@@ -348,9 +373,23 @@ impl Device {
         self.check("rtcAttachGeometryByID")
     }
 
-    /// Builds the BVH; afterwards the scene is read-only and thread-safe.
-    pub fn commit(&self, scene: &Scene) -> Result<(), EmbreeError> {
-        unsafe { rtcCommitScene(scene.raw) };
+    /// Builds the BVH, telling `progress` of it in units of which the
+    /// whole build is `total`; afterwards the scene is read-only and
+    /// thread-safe.
+    pub fn commit(&self, scene: &Scene, progress: Reporter, total: u64) -> Result<(), EmbreeError> {
+        let monitor = BuildMonitor {
+            progress,
+            total,
+            done: AtomicU64::new(0),
+        };
+        // SAFETY: `monitor` outlives the commit, the only time Embree calls
+        // the monitor, which is unset before `monitor` goes.
+        unsafe {
+            let ptr = &monitor as *const BuildMonitor as *mut c_void;
+            rtcSetSceneProgressMonitorFunction(scene.raw, Some(report_build), ptr);
+            rtcCommitScene(scene.raw);
+            rtcSetSceneProgressMonitorFunction(scene.raw, None, std::ptr::null_mut());
+        }
         self.check("rtcCommitScene")
     }
 }

@@ -3,6 +3,7 @@
 use super::fail::Fail;
 use super::ply::{parse_header, trailing, Format, Header, Kind, Ty};
 use super::MeshError;
+use crate::meter::{Reporter, Step};
 use std::io::Read;
 use std::path::Path;
 
@@ -25,7 +26,10 @@ pub(super) fn inflate(data: &[u8], is_ply: bool, path: &Path) -> Result<Vec<u8>,
         path: path.to_path_buf(),
         msg: format!("gzip: {e}"),
     };
-    let mut decoder = flate2::read::MultiGzDecoder::new(data);
+    let mut decoder = flate2::read::MultiGzDecoder::new(Counted {
+        rest: data,
+        progress: Step::current(),
+    });
     let mut out = Vec::new();
     if is_ply {
         inflate_ply(&mut decoder, &mut out).map_err(|e| match e {
@@ -37,6 +41,20 @@ pub(super) fn inflate(data: &[u8], is_ply: bool, path: &Path) -> Result<Vec<u8>,
         decoder.read_to_end(&mut out).map_err(gzip)?;
     }
     Ok(out)
+}
+
+/// Compressed bytes, reported to the step as the decoder takes them.
+struct Counted<'a> {
+    rest: &'a [u8],
+    progress: Reporter,
+}
+
+impl Read for Counted<'_> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.rest.read(buf)?;
+        self.progress.advance(n);
+        Ok(n)
+    }
 }
 
 enum Inflate {
@@ -111,6 +129,7 @@ fn max_body(header: &Header) -> usize {
 mod tests {
     use super::super::load_mesh;
     use super::super::test_support::{binary_example, check_example, err, write, ASCII};
+    use crate::meter::test_support::{steps, Recorder};
 
     #[test]
     fn gzipped_ply() {
@@ -119,8 +138,17 @@ mod tests {
         for data in [ASCII.as_bytes().to_vec(), binary_example(false, 0)] {
             let mut gz = GzEncoder::new(Vec::new(), flate2::Compression::default());
             gz.write_all(&data).unwrap();
-            let path = write("z.ply.gz", &gz.finish().unwrap());
-            check_example(&load_mesh(&path).unwrap());
+            let gz = gz.finish().unwrap();
+            let path = write("z.ply.gz", &gz);
+            let (mesh, events) = Recorder::record(|| load_mesh(&path).unwrap());
+            check_example(&mesh);
+            // One step, counting the compressed bytes, not the parse of
+            // what they inflate to.
+            let done = steps(&events)
+                .iter()
+                .map(|s| (s.1, s.2))
+                .collect::<Vec<_>>();
+            assert_eq!(done, vec![(gz.len() as u64, gz.len() as u64)]);
         }
         let e = err("bad.ply.gz", &[0x1f, 0x8b, 8, 0, 1, 2]);
         assert!(e.contains("gzip"), "{e}");

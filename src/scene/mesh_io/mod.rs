@@ -32,6 +32,7 @@ mod test_support;
 pub(crate) use checks::{drop_degenerate, is_degenerate};
 
 use crate::geometry::Mesh;
+use crate::meter::{unmetered, Step, StepKind};
 use fail::Fail;
 use std::path::{Path, PathBuf};
 
@@ -73,6 +74,8 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
 /// it does not read, triangles it dropped, and why): empty for a file read
 /// whole. The path must be a regular file.
 pub fn read_mesh(path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    let _step = Step::begin(StepKind::ReadMesh { file: path }, size);
     let data = crate::location::map_regular_file(path).map_err(|source| MeshError::Io {
         path: path.to_path_buf(),
         source,
@@ -107,8 +110,9 @@ pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<(Mesh, Vec<String>),
     if !gzip::is_gzip(data) {
         return parse(data).map_err(|f| f.at(path));
     }
+    // The step counts the compressed bytes as they are inflated.
     let inflated = gzip::inflate(data, is_ply, path)?;
-    parse(&inflated).map_err(|f| f.at(path))
+    unmetered(|| parse(&inflated)).map_err(|f| f.at(path))
 }
 
 /// A mesh with the notes on what of its file luz did not use.

@@ -18,6 +18,7 @@ use super::Noted;
 use crate::echo::echo;
 use crate::geometry::Mesh;
 use crate::math::{Vec2, Vec3};
+use crate::meter::Step;
 use std::collections::HashMap;
 
 /// No texture coordinate or normal at a corner.
@@ -348,10 +349,14 @@ fn corner(
 pub(super) fn parse_obj_chunks(data: &[u8], chunk_bytes: usize) -> Option<Noted> {
     use rayon::prelude::*;
     let chunks = line_chunks(data, chunk_bytes);
+    let progress = Step::current();
     let first: Vec<Outcome> = chunks
         .par_iter()
         .enumerate()
-        .map(|(k, r)| read_chunk(&data[r.clone()], (k == 0).then_some([0; 3])))
+        .map(|(k, r)| {
+            progress.advance(r.len());
+            read_chunk(&data[r.clone()], (k == 0).then_some([0; 3]))
+        })
         .collect();
     let counts = |o: &Outcome| match o {
         Outcome::Read(p) => Some([p.positions.len(), p.texcoords.len(), p.normals]),

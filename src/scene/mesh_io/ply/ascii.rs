@@ -17,6 +17,7 @@ use super::header::{Element, Kind, Property};
 use super::numbers::{parse_float, parse_int};
 use super::plan::Role;
 use super::trailing;
+use crate::meter::Step;
 use crate::scene::mesh_io::chunks::{line_chunks, lines_before, CHUNK_BYTES};
 use crate::scene::mesh_io::fail::{fail_at, short, show, Fail};
 
@@ -215,10 +216,14 @@ fn parallel_body(
         // The file ends early (or holds records over several lines).
         return None;
     }
+    let progress = Step::current();
     let read: Vec<Chunk> = chunks
         .par_iter()
         .zip(&before)
-        .map(|(range, &o)| read_chunk(&data[range.clone()], first_line + o, o, &layout, roles, out))
+        .map(|(range, &o)| {
+            progress.advance(range.len());
+            read_chunk(&data[range.clone()], first_line + o, o, &layout, roles, out)
+        })
         .collect();
     let mut parts = Vec::with_capacity(read.len());
     for c in read {

@@ -381,6 +381,7 @@ mod tests {
     /// error names the first, wherever the chunks finish.
     #[test]
     fn large_packed_positions_name_the_first_bad_vertex() {
+        use crate::meter::test_support::{steps, Recorder};
         let n = 700_000usize;
         let mut data = format!(
             "ply\nformat binary_little_endian 1.0\nelement vertex {n}\nproperty float x\n\
@@ -403,7 +404,16 @@ mod tests {
             data.len() > 8 << 20,
             "the file must be large enough to be mapped"
         );
-        let m = load_mesh(&write("big.ply", &data)).unwrap();
+        let path = write("big.ply", &data);
+        let (m, events) = Recorder::record(|| load_mesh(&path).unwrap());
+        // The bulk paths count every byte of the body as they read it.
+        let file = path.display().to_string();
+        let steps = steps(&events);
+        assert_eq!(steps.len(), 1, "{events:?}");
+        let (what, total, done, reports) = &steps[0];
+        assert_eq!((what, *total), (&file, data.len() as u64));
+        assert_eq!(*done, (data.len() - body) as u64);
+        assert!(*reports > 2, "{reports}");
         assert_eq!(m.positions.len(), n);
         assert!((0..n).all(|k| m.positions[k].to_array() == vertex(k)));
         assert_eq!(m.indices, vec![[0, 1, n as u32 - 1]]);

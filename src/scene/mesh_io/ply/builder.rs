@@ -2,6 +2,7 @@
 
 use crate::math::{Vec2, Vec3};
 use crate::memory;
+use crate::meter::Step;
 use crate::scene::mesh_io::checks::check_finite;
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
@@ -78,11 +79,13 @@ impl Builder {
         let first = self.positions.len();
         let count = records.len() / 12;
         self.positions.reserve_exact(count);
+        let progress = Step::current();
         let bad = self.positions.spare_capacity_mut()[..count]
             .par_chunks_mut(VERTEX_CHUNK)
             .zip(records.par_chunks(VERTEX_CHUNK * 12))
             .enumerate()
             .filter_map(|(c, (out, records))| {
+                progress.advance(records.len());
                 copy_positions(out, records)
                     .iter()
                     .position(|p| !p.is_finite())

@@ -7,6 +7,7 @@
 use super::binary::bytes;
 use super::header::{Element, Kind, Ty};
 use super::plan::Role;
+use crate::meter::Step;
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
 
@@ -48,10 +49,14 @@ pub(super) fn bulk_triangles<const BE: bool>(
     debug_assert!(indices.is_empty());
     // The builder reserved the header's face count already.
     indices.reserve_exact(el.count);
+    let progress = Step::current();
     let all_good = indices.spare_capacity_mut()[..el.count]
         .par_chunks_mut(CHUNK)
         .zip(records.par_chunks(CHUNK * RECORD))
-        .map(|(out, records)| read_chunk::<BE>(out, records, limit))
+        .map(|(out, records)| {
+            progress.advance(records.len());
+            read_chunk::<BE>(out, records, limit)
+        })
         .reduce(|| true, |a, b| a & b);
     if !all_good {
         return None;
