@@ -77,6 +77,15 @@ mod imp {
         pub fn le_mask(self, o: F4) -> u32 {
             self.le(o).bits()
         }
+        /// Each lane truncated towards zero, for lanes already within
+        /// `0..=i32::MAX` (others are `i32::MIN`, as `cvttps2dq` gives).
+        #[inline(always)]
+        pub fn truncate_in_range(self) -> [i32; 4] {
+            let mut out = [0i32; 4];
+            // SAFETY: writes exactly the four integers of `out`.
+            unsafe { _mm_storeu_si128(out.as_mut_ptr().cast(), _mm_cvttps_epi32(self.0)) };
+            out
+        }
     }
 
     impl M4 {
@@ -132,6 +141,12 @@ mod imp {
         binop!(add, |a: f32, b: f32| a + b);
         binop!(sub, |a: f32, b: f32| a - b);
         binop!(mul, |a: f32, b: f32| a * b);
+        /// Each lane truncated towards zero, for lanes already within
+        /// `0..=i32::MAX`.
+        #[inline(always)]
+        pub fn truncate_in_range(self) -> [i32; 4] {
+            self.0.map(|v| v as i32)
+        }
         binop!(div, |a: f32, b: f32| a / b);
         binop!(min, |a: f32, b: f32| if a < b { a } else { b });
         binop!(max, |a: f32, b: f32| if a > b { a } else { b });
