@@ -237,17 +237,7 @@ mod tests {
             if spare {
                 positions.reserve_exact(1);
             }
-            let scene = scene_of(vec![
-                Geometry::Sphere(Sphere {
-                    center: Vec3::new(0.0, 0.0, -5.0),
-                    radius: 1.0,
-                }),
-                Geometry::Mesh(Mesh {
-                    positions,
-                    indices: vec![[0, 1, 2]],
-                    uvs: None,
-                }),
-            ]);
+            let scene = sphere_behind(positions, vec![[0, 1, 2]]);
             // Nothing at the root: the sphere is user geometry.
             let b = build(scene, &[false, false]).unwrap();
             let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), -Vec3::Z);
@@ -262,6 +252,22 @@ mod tests {
             assert!(b.closest(&down(3.0)).is_none());
             assert_eq!(b.version().split('.').next(), Some("3"));
         }
+    }
+
+    /// A scene of a unit sphere at z = -5 (shape 0) and the mesh
+    /// `positions`, `indices` (shape 1).
+    fn sphere_behind(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> Arc<Scene> {
+        scene_of(vec![
+            Geometry::Sphere(Sphere {
+                center: Vec3::new(0.0, 0.0, -5.0),
+                radius: 1.0,
+            }),
+            Geometry::Mesh(Mesh {
+                positions,
+                indices,
+                uvs: None,
+            }),
+        ])
     }
 
     /// The build is one step counting the tree's primitives (the sphere's
@@ -284,17 +290,7 @@ mod tests {
                 })
             })
             .collect();
-        let scene = scene_of(vec![
-            Geometry::Sphere(Sphere {
-                center: Vec3::new(0.0, 0.0, -5.0),
-                radius: 1.0,
-            }),
-            Geometry::Mesh(Mesh {
-                positions,
-                indices,
-                uvs: None,
-            }),
-        ]);
+        let scene = sphere_behind(positions, indices);
         let (built, events) = Recorder::record(|| build(scene, &[false, false]));
         assert!(built.is_ok());
         let steps = steps(&events);
