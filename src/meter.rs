@@ -39,27 +39,26 @@ thread_local! {
 
 /// Runs `work` with `meter` told of the steps it takes on this thread.
 pub fn metered<R>(meter: Arc<dyn Meter>, work: impl FnOnce() -> R) -> R {
-    struct Restore(Option<Arc<dyn Meter>>);
-    impl Drop for Restore {
-        fn drop(&mut self) {
-            CURRENT.with(|c| *c.borrow_mut() = self.0.take());
-        }
-    }
-    let _restore = Restore(CURRENT.with(|c| c.borrow_mut().replace(meter)));
-    work()
+    with_current(Some(meter), work)
 }
 
 /// Runs `work` with no meter: for work whose progress the step in
 /// progress counts otherwise (a gzipped mesh counts compressed bytes, not
 /// the parse of what they inflate to).
 pub(crate) fn unmetered<R>(work: impl FnOnce() -> R) -> R {
+    with_current(None, work)
+}
+
+/// Runs `work` with `meter` as this thread's, and puts the one before
+/// back afterwards, also when `work` panics.
+fn with_current<R>(meter: Option<Arc<dyn Meter>>, work: impl FnOnce() -> R) -> R {
     struct Restore(Option<Arc<dyn Meter>>);
     impl Drop for Restore {
         fn drop(&mut self) {
             CURRENT.with(|c| *c.borrow_mut() = self.0.take());
         }
     }
-    let _restore = Restore(CURRENT.with(|c| c.borrow_mut().take()));
+    let _restore = Restore(CURRENT.with(|c| c.replace(meter)));
     work()
 }
 
