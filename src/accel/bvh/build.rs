@@ -12,7 +12,7 @@
 //! Binning is parallel too (per chunk, then merged) where a node is large,
 //! so the first splits, which see every primitive, use every thread.
 
-use super::progress::{report_parallel_leaf, report_serial_child, report_serial_root};
+use super::progress::{report_parallel_leaf, report_serial};
 use super::{usable, Preset, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::Aabb;
 use crate::memory;
@@ -117,10 +117,6 @@ enum Split {
     /// No SAH split (centroids all equal, or the depth guard).
     Unsplittable,
 }
-
-/// A node's references split in two: the left count, and the bounds of
-/// each side when the split gathered them.
-type Parted = (usize, Option<(Side, Side)>);
 
 /// Per-axis bins of one node. `N` is a constant, so a small node does not
 /// pay for clearing the bins of a large one (with 64 bins always, clearing
@@ -234,7 +230,7 @@ impl BuildCtx<'_> {
     pub(super) fn build(&self, refs: &mut [PrimRef], first: usize, depth: usize) -> BuildNode {
         let (bounds, centroids) = bounds_of(refs);
         let root = self.build_in(refs, first, depth, bounds, centroids).1;
-        report_serial_root(self.progress, refs.len());
+        report_serial(self.progress, refs.len());
         root
     }
 
@@ -262,14 +258,16 @@ impl BuildCtx<'_> {
         } else {
             self.sah_split(refs, &centroids, &bounds)
         };
-        let (mid, sides): Parted = match split {
-            Split::At(mid, l, r) => (mid, Some((l, r))),
+        // The left count, and each side's bounds where the split gathered
+        // them.
+        let (mid, ls, rs) = match split {
+            Split::At(mid, l, r) => (mid, Some(l), Some(r)),
             Split::Leaf => {
                 report_parallel_leaf(self.progress, n);
                 return (bounds.aabb(), leaf);
             }
             Split::Unsplittable if n <= self.preset.max_leaf => return (bounds.aabb(), leaf),
-            Split::Unsplittable => (median_split(refs, &centroids), None),
+            Split::Unsplittable => (median_split(refs, &centroids), None, None),
         };
         let (l, r) = refs.split_at_mut(mid);
         let build = |refs: &mut [PrimRef], first: usize, side: Option<Side>| {
@@ -279,11 +277,10 @@ impl BuildCtx<'_> {
             };
             self.build_in(refs, first, depth + 1, b, c)
         };
-        let (ls, rs) = (sides.map(|s| s.0), sides.map(|s| s.1));
         let (left, right) = if n >= PARALLEL_THRESHOLD {
             let reported = |refs: &mut [PrimRef], first: usize, side: Option<Side>| {
                 let built = build(refs, first, side);
-                report_serial_child(self.progress, refs.len());
+                report_serial(self.progress, refs.len());
                 built
             };
             rayon::join(|| reported(l, first, ls), || reported(r, first + mid, rs))

@@ -9,7 +9,7 @@
 //! collapsed, padded and traversed by the same code.
 
 use super::build::BuildNode;
-use super::progress::{report_serial_child, report_serial_root};
+use super::progress::report_serial;
 use super::{usable, MAX_DEPTH, PARALLEL_THRESHOLD};
 use crate::math::{Aabb, Vec3};
 use crate::memory;
@@ -73,7 +73,7 @@ pub(super) fn build(
         progress,
     };
     let root = emit.node(0, keys.len(), TOP, 0).1;
-    report_serial_root(progress, keys.len());
+    report_serial(progress, keys.len());
     let mut order = memory::vec_with_capacity(keys.len());
     keys.par_iter()
         .map(|&k| k as u32)
@@ -128,7 +128,7 @@ impl<F: Fn(usize) -> Aabb + Sync> Emit<'_, F> {
         let (left, right) = if n >= PARALLEL_THRESHOLD {
             let reported = |first: usize, n: usize| {
                 let built = self.node(first, n, below, depth + 1);
-                report_serial_child(self.progress, n);
+                report_serial(self.progress, n);
                 built
             };
             rayon::join(|| reported(first, mid), || reported(first + mid, n - mid))

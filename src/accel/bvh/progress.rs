@@ -7,10 +7,10 @@
 use super::PARALLEL_THRESHOLD;
 use crate::meter::Reporter;
 
-/// A child subtree of `n` primitives, of a parent built in parallel, is
-/// done: counted here when it was built serially.
+/// A subtree of `n` primitives is done, either a child of a parent built
+/// in parallel or the whole tree: counted here when it was built serially.
 #[inline]
-pub(super) fn report_serial_child(progress: &Reporter, n: usize) {
+pub(super) fn report_serial(progress: &Reporter, n: usize) {
     if n < PARALLEL_THRESHOLD {
         progress.advance(n);
     }
@@ -21,15 +21,6 @@ pub(super) fn report_serial_child(progress: &Reporter, n: usize) {
 #[inline]
 pub(super) fn report_parallel_leaf(progress: &Reporter, n: usize) {
     if n >= PARALLEL_THRESHOLD {
-        progress.advance(n);
-    }
-}
-
-/// The whole tree of `n` primitives is done: counted here when it was
-/// built serially from its root.
-#[inline]
-pub(super) fn report_serial_root(progress: &Reporter, n: usize) {
-    if n < PARALLEL_THRESHOLD {
         progress.advance(n);
     }
 }
