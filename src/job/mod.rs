@@ -11,11 +11,13 @@
 
 mod error;
 pub mod files;
+mod observer;
 pub mod render;
 pub mod signals;
 
 pub use error::{JobError, WriteError};
-pub use render::{JobReport, Observer, Overrides, RenderJob, SampleChoice, SamplingRequest, Stage};
+pub use observer::{Observer, Stage};
+pub use render::{JobReport, Overrides, RenderJob, SampleChoice, SamplingRequest};
 
 use crate::distributed::merge::{merge, Merged};
 use crate::distributed::part;

@@ -3,6 +3,7 @@
 //! written, with a full disk or a signal along the way.
 
 use super::files::{check_output, refuse_overlaps, Checkpoint, Role};
+use super::observer::{metered_by, Observer, Stage};
 use super::signals::Stop;
 use super::{JobError, WriteError};
 use crate::accel::{Accel, Backend as _, BackendKind, BuildOptions};
@@ -10,9 +11,8 @@ use crate::distributed::part::{self, PartMeta};
 use crate::distributed::passes::{render_passes, Outcome, PassTiming};
 use crate::distributed::task::{self, Task};
 use crate::image::io::{self as imageio, WriteOptions};
-use crate::meter::Meter;
 use crate::render::film::ErrorEstimate;
-use crate::render::{Film, Progress, RenderOptions, RenderStats, Sampling};
+use crate::render::{Film, RenderOptions, RenderStats, Sampling};
 use crate::sampling::SamplerKind;
 use crate::scene::{LoadOptions, Scene, SceneError};
 use std::ops::Range;
@@ -109,39 +109,6 @@ impl SamplingRequest {
                 }
             }
         })
-    }
-}
-
-/// A stage before the first sample, reported when done.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Stage {
-    Loaded,
-    Built,
-}
-
-/// Whoever shows the job's progress.
-pub trait Observer: Progress {
-    fn stage_done(&self, _stage: Stage, _time: Duration) {}
-    /// Who is told of the steps of loading and building (a mesh read, a
-    /// tree built) as they go.
-    fn meter(&self) -> Option<Arc<dyn Meter>> {
-        None
-    }
-    fn task_chosen(&self, _task: &Task, _samples: &Range<u32>) {}
-    /// Rendering starts: `steps` rows of one sample each are to come, of
-    /// `samples_per_step` samples.
-    fn rendering(&self, _steps: u64, _samples_per_step: u64) {}
-    /// A checkpoint could not be written; the render goes on.
-    fn checkpoint_failed(&self, _error: &WriteError) {}
-}
-
-impl Observer for () {}
-
-/// Runs `work` with the observer's meter, if it has one.
-fn metered_by<R>(observer: &dyn Observer, work: impl FnOnce() -> R) -> R {
-    match observer.meter() {
-        Some(meter) => crate::meter::metered(meter, work),
-        None => work(),
     }
 }
 
