@@ -3,6 +3,7 @@
 //! feeding one Monte Carlo integrator.
 
 pub mod accel;
+pub mod bsdf;
 pub mod distributed;
 pub mod echo;
 pub mod geometry;

@@ -16,11 +16,15 @@
 //! found only by hitting them and count fully.
 
 use crate::accel::Backend;
+use crate::bsdf::Bsdf;
 use crate::geometry::{PreliminaryHit, SurfacePoint};
 use crate::math::{
     fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
 };
 use crate::sampling::{cosine_hemisphere, power_heuristic, Dimension, Sampler};
+
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 use crate::scene::{Lobes, Material, Scene};
 use std::f32::consts::FRAC_1_PI;
 
@@ -125,43 +129,62 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             }
             // The vertex's numbers come in dimension order (`Dimension`).
             let vertex = depth - 1;
-            let Some(Scatter { lobe, p, k }) =
-                self.choose_lobe(shape.material, &hit, &sp, cos_o, sampler, vertex)
-            else {
-                break;
-            };
-
             // Shading normal on the side of the outgoing direction: every
             // reflecting surface is two-sided.
             let entering = cos_o > 0.0;
             let ns = if entering { sp.n } else { -sp.n };
-            let wi = match lobe {
-                Lobe::Diffuse => {
-                    beta /= p;
-                    radiance += beta * self.direct(&sp, ns, k, depth, sampler, counts);
-                    let frame = Frame::from_normal(ns);
-                    let u = sampler.get_2d(vertex, Dimension::Direction);
-                    let local = cosine_hemisphere(u);
-                    let wi = frame.to_world(local);
-                    beta *= k;
-                    prev = Some((sp.p, local.z * FRAC_1_PI));
-                    wi
-                }
-                Lobe::Mirror => {
-                    beta *= k / p;
-                    prev = None;
-                    reflect(wo, ns)
-                }
-                Lobe::Refraction => {
-                    beta *= k / p;
-                    prev = None;
-                    let eta = if entering {
-                        material.ior
-                    } else {
-                        1.0 / material.ior
-                    };
-                    // Total internal reflection sends the light back.
-                    refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
+            let wi = if let (Lobes::Bsdf, Some(bsdf)) = (shading.lobes, &material.bsdf) {
+                let Some(next) = self.bsdf_vertex(
+                    bsdf,
+                    &hit,
+                    &sp,
+                    ns,
+                    wo,
+                    depth,
+                    sampler,
+                    counts,
+                    &mut beta,
+                    &mut radiance,
+                ) else {
+                    break;
+                };
+                prev = next.pdf.map(|pdf| (sp.p, pdf));
+                next.wi
+            } else {
+                let Some(Scatter { lobe, p, k }) =
+                    self.choose_lobe(shape.material, &hit, &sp, cos_o, sampler, vertex)
+                else {
+                    break;
+                };
+                match lobe {
+                    Lobe::Diffuse => {
+                        beta /= p;
+                        radiance +=
+                            beta * self.direct(&sp, ns, &Lambert(k), depth, sampler, counts);
+                        let frame = Frame::from_normal(ns);
+                        let u = sampler.get_2d(vertex, Dimension::Direction);
+                        let local = cosine_hemisphere(u);
+                        let wi = frame.to_world(local);
+                        beta *= k;
+                        prev = Some((sp.p, local.z * FRAC_1_PI));
+                        wi
+                    }
+                    Lobe::Mirror => {
+                        beta *= k / p;
+                        prev = None;
+                        reflect(wo, ns)
+                    }
+                    Lobe::Refraction => {
+                        beta *= k / p;
+                        prev = None;
+                        let eta = if entering {
+                            material.ior
+                        } else {
+                            1.0 / material.ior
+                        };
+                        // Total internal reflection sends the light back.
+                        refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
+                    }
                 }
             };
             if beta.is_nan() || beta.max_element() <= 0.0 {
@@ -262,13 +285,68 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         })
     }
 
-    /// Light reaching `sp` from point lights and sampled emitters, times the
-    /// Lambertian BRDF (kd/π) and the cosine; area lights MIS-weighted.
+    /// A vertex on a model of `crate::bsdf`: Russian roulette, light
+    /// sampling unless every lobe is a delta, then the model's own sample.
+    /// `None` ends the path; otherwise the direction and, for a non-delta
+    /// sample, its pdf for MIS at the emitter it may hit.
+    #[allow(clippy::too_many_arguments)]
+    fn bsdf_vertex(
+        &self,
+        bsdf: &Bsdf,
+        hit: &PreliminaryHit,
+        sp: &SurfacePoint,
+        ns: Vec3,
+        wo: Vec3,
+        depth: u32,
+        sampler: &mut Sampler,
+        counts: &mut RayCounts,
+        beta: &mut Rgb,
+        radiance: &mut Rgb,
+    ) -> Option<Continuation> {
+        let vertex = depth - 1;
+        let material = self.scene.material_of(hit.geom);
+        let diffuse = if material.texture.is_some() {
+            self.scene.albedo(hit, sp)
+        } else {
+            material.kd
+        };
+        let frame = Frame::from_normal(ns);
+        let wo_local = frame.to_local(wo);
+        let mut u_lobe = sampler.get_1d(vertex, Dimension::Lobe);
+        if self.settings.russian_roulette {
+            let q = bsdf.survival(wo_local, diffuse);
+            if u_lobe >= q {
+                return None;
+            }
+            // What is left of the number below q is again uniform.
+            u_lobe = (u_lobe / q).min(ONE_MINUS_EPSILON);
+            *beta /= q;
+        }
+        if !bsdf.is_delta() {
+            let glossy = Glossy {
+                bsdf,
+                frame,
+                wo: wo_local,
+                diffuse,
+            };
+            *radiance += *beta * self.direct(sp, ns, &glossy, depth, sampler, counts);
+        }
+        let u = sampler.get_2d(vertex, Dimension::Direction);
+        let s = bsdf.sample(wo_local, u_lobe, u, diffuse)?;
+        *beta *= s.weight;
+        Some(Continuation {
+            wi: frame.to_world(s.wi),
+            pdf: (!s.delta).then_some(s.pdf),
+        })
+    }
+
+    /// Light reaching `sp` from point lights and sampled emitters, times
+    /// `surface`'s f·cos; area lights MIS-weighted against its pdf.
     fn direct(
         &self,
         sp: &SurfacePoint,
         ns: Vec3,
-        kd: Rgb,
+        surface: &impl Reflector,
         depth: u32,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
@@ -278,7 +356,6 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             return Rgb::ZERO;
         }
         let scene = self.scene;
-        let f = kd * FRAC_1_PI;
         let mut sum = Rgb::ZERO;
         for light in &scene.point_lights {
             let to_light = light.position - sp.p;
@@ -290,7 +367,9 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, ns);
             counts.shadow += 1;
             if !self.backend.occluded(&ray) {
-                sum += f * light.intensity * (cos / (d2 * d2.sqrt()));
+                let d = d2.sqrt();
+                let (f_cos, _) = surface.eval(to_light / d, cos / d);
+                sum += f_cos * light.intensity / d2;
             }
         }
         if !scene.lights.is_empty() {
@@ -312,12 +391,56 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                         spawn_ray_to(sp.p, sp.p_err, sp.n, ls.point.p, ls.point.p_err, ls.point.n);
                     counts.shadow += 1;
                     if !self.backend.occluded(&ray) {
-                        let weight = power_heuristic(ls.pdf, cos * FRAC_1_PI);
-                        sum += f * ls.emission * (cos * weight / ls.pdf);
+                        let (f_cos, pdf) = surface.eval(wi, cos);
+                        let weight = power_heuristic(ls.pdf, pdf);
+                        sum += f_cos * ls.emission * (weight / ls.pdf);
                     }
                 }
             }
         }
         sum
+    }
+}
+
+/// Where a path goes from a vertex on a model of `crate::bsdf`.
+struct Continuation {
+    wi: Vec3,
+    /// The solid-angle pdf of `wi`; `None` for a delta lobe.
+    pdf: Option<f32>,
+}
+
+/// What light sampling needs of a surface: f·cos θ for a direction `wi`
+/// (world, unit, with `cos` = n_s·wi > 0) and the pdf with which the
+/// surface would have sampled it.
+trait Reflector {
+    fn eval(&self, wi: Vec3, cos: f32) -> (Rgb, f32);
+}
+
+/// The diffuse lobe of the kd/ks/kt mix: kd/π.
+struct Lambert(Rgb);
+
+impl Reflector for Lambert {
+    #[inline]
+    fn eval(&self, _wi: Vec3, cos: f32) -> (Rgb, f32) {
+        let pdf = cos * FRAC_1_PI;
+        (self.0 * pdf, pdf)
+    }
+}
+
+/// A model of `crate::bsdf` at a vertex.
+struct Glossy<'a> {
+    bsdf: &'a Bsdf,
+    frame: Frame,
+    wo: Vec3,
+    diffuse: Rgb,
+}
+
+impl Reflector for Glossy<'_> {
+    fn eval(&self, wi: Vec3, _cos: f32) -> (Rgb, f32) {
+        let wi = self.frame.to_local(wi);
+        (
+            self.bsdf.eval(self.wo, wi, self.diffuse),
+            self.bsdf.pdf(self.wo, wi),
+        )
     }
 }

@@ -1,8 +1,10 @@
 //! Materials: the Lambertian + perfect mirror + perfect refraction mix of the
 //! course path tracer (coefficients chosen by Russian roulette), with the
 //! physical conventions of SCENES.md (BRDF kd/π), a Fresnel dielectric for
-//! glass, and emission for area lights.
+//! glass, and emission for area lights; or one of the reflection models of
+//! `crate::bsdf` (conductors, rough plastic), which replaces the mix.
 
+use crate::bsdf::Bsdf;
 use crate::math::Rgb;
 
 #[derive(Clone, Debug, PartialEq)]
@@ -22,6 +24,9 @@ pub struct Material {
     /// Emitted radiance from the front side.
     pub emission: Rgb,
     pub texture: Option<u32>,
+    /// A reflection model in place of the kd/ks/kt mix; `kd` (textured)
+    /// is then the base colour of the models that have one.
+    pub bsdf: Option<Bsdf>,
 }
 
 impl Default for Material {
@@ -35,6 +40,7 @@ impl Default for Material {
             dielectric: false,
             emission: Rgb::ZERO,
             texture: None,
+            bsdf: None,
         }
     }
 }
@@ -47,6 +53,7 @@ impl Material {
     /// Whether any lobe can scatter: absorbing surfaces end paths at once.
     pub fn scatters(&self) -> bool {
         self.dielectric
+            || self.bsdf.is_some()
             || self.texture.is_some()
             || (self.kd + self.ks + self.kt).max_element() > 0.0
     }
@@ -69,6 +76,8 @@ pub enum Lobes {
     /// A texture, a mirror, refraction or a Fresnel dielectric: the weights
     /// of the three lobes are evaluated at each vertex.
     Mixed,
+    /// A model of `crate::bsdf`.
+    Bsdf,
 }
 
 impl Material {
@@ -79,7 +88,9 @@ impl Material {
             && self.kt == Rgb::ZERO;
         Shading {
             emissive: self.is_emissive(),
-            lobes: if diffuse_only {
+            lobes: if self.bsdf.is_some() {
+                Lobes::Bsdf
+            } else if diffuse_only {
                 Lobes::Diffuse {
                     weight: self.kd.max_element(),
                 }
