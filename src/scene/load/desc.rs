@@ -104,6 +104,12 @@ pub(super) struct MaterialDesc {
     pub(super) ior: Option<f32>,
     pub(super) emission: Option<Color>,
     pub(super) texture: Option<String>,
+    /// Conductors: the complex index of refraction η + ik per channel.
+    pub(super) eta: Option<Color>,
+    pub(super) k: Option<Color>,
+    /// Rough models: the microfacet roughness α and its distribution.
+    pub(super) roughness: Option<f32>,
+    pub(super) distribution: Option<String>,
 }
 
 #[derive(Deserialize)]
