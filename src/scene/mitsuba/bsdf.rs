@@ -2,10 +2,12 @@
 //! refraction kt, Fresnel dielectric). What does not map exactly is
 //! substituted, with a warning that says by what.
 
+use super::conductors::CONDUCTORS;
 use super::props::{Props, Value};
 use super::spectrum::Use;
 use super::xml::Elem;
 use super::Builder;
+use crate::bsdf::{Conductor, Distribution, Microfacet, RoughPlastic};
 use crate::echo::echo;
 use crate::math::Rgb;
 use crate::scene::{Material, SceneError, UvTransform};
@@ -48,16 +50,6 @@ const IORS: &[(&str, f64)] = &[
     ("amber", 1.55),
     ("pet", 1.5750),
     ("diamond", 2.419),
-];
-
-/// Normal-incidence reflectance (linear sRGB) of Mitsuba's named
-/// conductors that luz knows; others are substituted by aluminium.
-const METALS: &[(&str, [f32; 3])] = &[
-    ("Al", [0.913, 0.922, 0.924]),
-    ("Ag", [0.972, 0.960, 0.915]),
-    ("Au", [1.000, 0.782, 0.344]),
-    ("Cu", [0.955, 0.638, 0.538]),
-    ("Cr", [0.550, 0.556, 0.554]),
 ];
 
 /// Nested BSDFs (twosided, mask, ...) go at most this deep.
@@ -186,7 +178,7 @@ fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
 }
 
 /// The properties of a rough BSDF's microfacet distribution, which luz
-/// reads and substitutes (with a warning) rather than reporting as unused.
+/// reads and substitutes (with a warning) where it has no rough model.
 const ROUGHNESS: [&str; 5] = [
     "alpha",
     "alpha_u",
@@ -195,75 +187,119 @@ const ROUGHNESS: [&str; 5] = [
     "sample_visible",
 ];
 
-fn conductor(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+/// A rough model's microfacet distribution: Mitsuba's `distribution`
+/// (default Beckmann) and `alpha` (default 0.1). luz's roughness is
+/// isotropic and its normals are always sampled as seen from the viewer.
+fn microfacet(b: &mut Builder, props: &Props) -> Result<Microfacet, SceneError> {
     let e = props.elem;
-    let mut what = Vec::new();
-    if e.kind() == "roughconductor" {
-        for n in ROUGHNESS {
-            props.accept(n);
+    let distribution = match props.string("distribution")? {
+        None | Some("beckmann") => Distribution::Beckmann,
+        Some("ggx") => Distribution::Ggx,
+        Some(other) => {
+            let at = props.get("distribution").map_or(&e.loc, |d| &d.loc);
+            return Err(at.error(format!(
+                "`distribution` {}: expected beckmann or ggx",
+                echo(other)
+            )));
         }
-        what.push("the roughness is substituted by a perfect mirror");
-    }
-    let f0 = conductor_f0(b, props, &mut what)?;
-    let tint = match props.color("specular_reflectance", Use::Reflectance, &mut b.problems)? {
-        Some(Value::Rgb(c)) => c,
-        Some(Value::Texture(_)) => {
-            what.push("the specular_reflectance texture is substituted by 1");
-            Rgb::ONE
-        }
-        None => Rgb::ONE,
     };
-    if !what.is_empty() {
-        b.problems
-            .warn(&e.loc, format!("{}: {}", e.describe(), what.join("; ")))?;
+    let alpha = match (
+        props.float("alpha")?,
+        props.float("alpha_u")?,
+        props.float("alpha_v")?,
+    ) {
+        (Some(a), _, _) => a,
+        (None, Some(u), Some(v)) => {
+            b.problems.warn(
+                &e.loc,
+                format!("{}: luz's roughness is isotropic; substituted alpha = √(alpha_u·alpha_v) = {:.4}", e.describe(), (u * v).sqrt()),
+            )?;
+            (u * v).sqrt()
+        }
+        (None, None, None) => 0.1,
+        _ => {
+            return Err(e.loc.error(format!(
+                "{}: give `alpha`, or both `alpha_u` and `alpha_v`",
+                e.describe()
+            )))
+        }
+    };
+    if !(alpha >= 0.0 && alpha.is_finite()) {
+        return Err(e.loc.error(format!(
+            "`alpha` must be finite and not negative, got {alpha}"
+        )));
     }
-    let ks = clamp_albedo(b, props, "specular_reflectance", f0 * tint)?;
+    if props.boolean("sample_visible")? == Some(false) {
+        b.problems.warn(
+            &e.loc,
+            format!("{}: luz always samples the visible normals; `sample_visible` = false changes only the noise", e.describe()),
+        )?;
+    }
+    Ok(Microfacet::new(distribution, alpha as f32))
+}
+
+fn conductor(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let (eta, k) = conductor_index(props, &mut b.problems)?;
+    let roughness = if props.elem.kind() == "roughconductor" {
+        Some(microfacet(b, props)?)
+    } else {
+        None
+    };
+    let tint = tint(b, props, "specular_reflectance")?;
     Ok(Bsdf::of(Material {
         kd: Rgb::ZERO,
-        ks,
+        bsdf: Some(crate::bsdf::Bsdf::Conductor(Conductor {
+            eta,
+            k,
+            tint,
+            roughness,
+        })),
         ..Material::default()
     }))
 }
 
-/// The conductor's reflectance at normal incidence, from `eta`/`k` or a
-/// named `material` (`none`, the default, is a perfect mirror).
-fn conductor_f0(b: &mut Builder, props: &Props, what: &mut Vec<&str>) -> Result<Rgb, SceneError> {
+/// The conductor's complex index relative to the outside, from `eta`/`k`
+/// or a named `material` (`none`, the default, is a perfect mirror: η = 0,
+/// k = 1), divided by `ext_eta` as in Mitsuba.
+fn conductor_index(
+    props: &Props,
+    problems: &mut super::Problems,
+) -> Result<(Rgb, Rgb), SceneError> {
     let e = props.elem;
     let ext = props.float("ext_eta")?.unwrap_or(1.0);
-    let eta = props.color("eta", Use::Emission, &mut b.problems)?;
-    let k = props.color("k", Use::Emission, &mut b.problems)?;
+    if !(ext > 0.0 && ext.is_finite()) {
+        return Err(e
+            .loc
+            .error(format!("`ext_eta` must be positive and finite, got {ext}")));
+    }
+    let eta = props.color("eta", Use::Index, problems)?;
+    let k = props.color("k", Use::Index, problems)?;
     let material = props.string("material")?.unwrap_or("none");
-    if eta.is_none() && material != "none" {
-        what.push(
-            "the Fresnel term's change with angle is substituted by its value at normal incidence",
-        );
-        return match METALS.iter().find(|(m, _)| *m == material) {
-            Some((_, f0)) => Ok(Rgb::from(*f0)),
-            None => {
-                b.problems.warn(
-                    &e.loc,
-                    format!(
-                        "`material` {}: luz knows Al, Ag, Au, Cu, Cr; substituted Al",
-                        echo(material)
-                    ),
-                )?;
-                Ok(Rgb::from(METALS[0].1))
-            }
-        };
-    }
-    let rgb = |v: Option<Value>| match v {
-        Some(Value::Rgb(c)) => c,
-        _ => Rgb::ZERO,
+    let constant = |v: Option<Value>, default: f32, name: &str| match v {
+        None => Ok(Rgb::splat(default)),
+        Some(Value::Rgb(c)) => Ok(c),
+        Some(Value::Texture(_)) => Err(e
+            .loc
+            .error(format!("`{name}`: a texture is not supported here"))),
     };
-    let (n, k) = (rgb(eta) / ext as f32, rgb(k) / ext as f32);
-    if n != Rgb::ZERO || k != Rgb::ZERO {
-        what.push(
-            "the Fresnel term's change with angle is substituted by its value at normal incidence",
-        );
-    }
-    let one = Rgb::ONE;
-    let f0 = ((n - one) * (n - one) + k * k) / ((n + one) * (n + one) + k * k);
-    Ok(f0.min(one))
+    let (eta, k) = if eta.is_some() || material == "none" {
+        (constant(eta, 0.0, "eta")?, constant(k, 1.0, "k")?)
+    } else {
+        let Some((_, eta, k)) = CONDUCTORS.iter().find(|(m, _, _)| *m == material) else {
+            let at = props.get("material").map_or(&e.loc, |m| &m.loc);
+            return Err(at.error(format!(
+                "`material` {}: not one of Mitsuba's conductors ({})",
+                echo(material),
+                CONDUCTORS
+                    .iter()
+                    .map(|(n, _, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        };
+        (Rgb::from(*eta), Rgb::from(*k))
+    };
+    Ok((eta / ext as f32, k / ext as f32))
 }
 
 /// `int_ior` / `ext_ior`: a number or one of Mitsuba's names.
@@ -364,29 +400,40 @@ fn thin_dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     }))
 }
 
-/// kd under a coating: kd·(1 − F0) + ks·F0, both at normal incidence.
+/// `roughplastic` as luz's rough plastic; the smooth `plastic` as kd under
+/// a coating, kd·(1 − F0) + a mirror of F0, both at normal incidence.
 fn plastic(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
     let ior = relative_ior(props, 1.49)?;
-    let f = f0(ior);
     let (kd, texture, uv) = albedo(b, props, "diffuse_reflectance", 0.5)?;
-    let ks = tint(b, props, "specular_reflectance")? * f;
-    for n in ["alpha", "distribution", "nonlinear", "sample_visible"] {
-        props.accept(n);
+    let tint = tint(b, props, "specular_reflectance")?;
+    if e.kind() == "roughplastic" {
+        let coating = microfacet(b, props)?;
+        let nonlinear = props.boolean("nonlinear")?.unwrap_or(false);
+        // Mitsuba steers samples by the mean of the base's texture; luz by
+        // its colour factor, which is 1 under a texture.
+        let mean = (kd.x + kd.y + kd.z) / 3.0;
+        let model = RoughPlastic::new(coating, ior as f32, tint, mean, nonlinear);
+        return Ok(Bsdf {
+            material: Material {
+                kd,
+                texture,
+                bsdf: Some(crate::bsdf::Bsdf::RoughPlastic(model)),
+                ..Material::default()
+            },
+            uv,
+        });
     }
-    let rough = if e.kind() == "roughplastic" {
-        "the roughness is substituted by a smooth coating; "
-    } else {
-        ""
-    };
+    let f = f0(ior);
+    props.accept("nonlinear");
     b.problems.warn(
         &e.loc,
-        format!("{}: {rough}substituted kd·(1 − F0) + a mirror of F0 = {f:.4} (the coating's normal-incidence Fresnel reflectance)", e.describe()),
+        format!("{}: substituted kd·(1 − F0) + a mirror of F0 = {f:.4} (the coating's normal-incidence Fresnel reflectance)", e.describe()),
     )?;
     Ok(Bsdf {
         material: Material {
             kd: kd * (1.0 - f),
-            ks,
+            ks: tint * f,
             texture,
             ..Material::default()
         },

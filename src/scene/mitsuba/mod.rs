@@ -6,6 +6,7 @@
 
 mod bsdf;
 mod cie;
+mod conductors;
 mod emitters;
 mod props;
 mod sensor;

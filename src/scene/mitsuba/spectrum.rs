@@ -14,13 +14,16 @@ pub(super) enum Use {
     Reflectance,
     /// Emitted radiance or intensity: no illuminant, only negatives clamped.
     Emission,
+    /// A conductor's η or k: grey when uniform, like an albedo, but
+    /// unbounded.
+    Index,
 }
 
 /// A uniform spectrum of value `v`: an albedo is grey; an emitter is the
 /// (slightly purple) colour a flat spectrum has in sRGB, whose white is D65.
 pub(super) fn uniform(v: f64, use_: Use) -> Rgb {
     match use_ {
-        Use::Reflectance => Rgb::splat(v as f32),
+        Use::Reflectance | Use::Index => Rgb::splat(v as f32),
         Use::Emission => (xyz_to_srgb([1.0; 3]) * v).as_vec3(),
     }
 }
@@ -50,7 +53,7 @@ pub(super) fn to_rgb(wavelengths: &[f64], values: &[f64], use_: Use) -> Option<R
             ((w - w1) * values[k] + (w0 - w) * values[k + 1]) / (w0 - w1)
         };
         let weight = match use_ {
-            Use::Reflectance => d65(w),
+            Use::Reflectance | Use::Index => d65(w),
             Use::Emission => 1.0,
         };
         let cmf = cie1931(w);
@@ -63,7 +66,7 @@ pub(super) fn to_rgb(wavelengths: &[f64], values: &[f64], use_: Use) -> Option<R
     let rgb = xyz_to_srgb(xyz.map(|c| c * scale));
     let rgb = match use_ {
         Use::Reflectance => rgb.clamp(glam::DVec3::ZERO, glam::DVec3::ONE),
-        Use::Emission => rgb.max(glam::DVec3::ZERO),
+        Use::Emission | Use::Index => rgb.max(glam::DVec3::ZERO),
     };
     Some(rgb.as_vec3())
 }
