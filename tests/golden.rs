@@ -27,6 +27,9 @@
 //! ```sh
 //! cargo test --test golden -- --ignored regenerate
 //! ```
+//!
+//! `LUZ_GOLDEN_SCENES=a,b` regenerates only those scenes (a new scene's
+//! first reference), leaving the others as they are.
 
 use luz::accel::{Accel, BackendKind, BuildOptions};
 use luz::image::{self, Image};
@@ -425,7 +428,15 @@ fn regenerate() {
     manifest.width = SIZE;
     manifest.height = SIZE;
     let commit = luz_commit();
+    let only = std::env::var("LUZ_GOLDEN_SCENES").ok();
+    let chosen = |name: &str| {
+        only.as_deref()
+            .is_none_or(|list| list.split(',').any(|n| n == name))
+    };
     for name in scene_names() {
+        if !chosen(&name) {
+            continue;
+        }
         let Some(scene) = load_scene(&name) else {
             continue;
         };
