@@ -400,3 +400,78 @@ fn ref_cycles_and_include_cycles_are_errors_not_overflows() {
     );
     assert!(err.contains("given twice"), "{err}");
 }
+
+#[test]
+fn conductors_and_rough_plastic_become_luz_models() {
+    use luz::bsdf::{Bsdf, Distribution};
+    let body = r#"<shape type="sphere"><bsdf type="roughconductor">
+          <string name="material" value="Au"/><float name="alpha" value="0.2"/>
+          <string name="distribution" value="ggx"/></bsdf></shape>
+        <shape type="sphere"><bsdf type="conductor">
+          <rgb name="eta" value="0.2, 0.9, 1.1"/><rgb name="k" value="3.9, 2.4, 2.1"/>
+          <float name="ext_eta" value="2"/></bsdf></shape>
+        <shape type="sphere"><bsdf type="roughplastic">
+          <rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/>
+          <float name="int_ior" value="2"/><float name="alpha" value="0.05"/></bsdf></shape>
+        <shape type="sphere"><bsdf type="roughconductor">
+          <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.4"/></bsdf></shape>"#;
+    let s = ok("models", body);
+    let model = |i: usize| s.material_of(i as u32).bsdf.clone().expect("a model");
+    let Bsdf::Conductor(gold) = model(0) else {
+        panic!("{:?}", model(0))
+    };
+    let rough = gold.roughness.expect("rough");
+    assert_eq!((rough.distribution, rough.alpha), (Distribution::Ggx, 0.2));
+    assert!(
+        close(gold.eta, Vec3::new(0.143036, 0.375307, 1.44205)),
+        "{:?}",
+        gold.eta
+    );
+    let Bsdf::Conductor(smooth) = model(1) else {
+        panic!("{:?}", model(1))
+    };
+    assert!(smooth.roughness.is_none());
+    assert!(
+        close(smooth.eta, Vec3::new(0.1, 0.45, 0.55))
+            && close(smooth.k, Vec3::new(1.95, 1.2, 1.05))
+    );
+    let Bsdf::RoughPlastic(plastic) = model(2) else {
+        panic!("{:?}", model(2))
+    };
+    assert!(
+        (plastic.eta - 2.0 / 1.000277).abs() < 1e-5,
+        "{}",
+        plastic.eta
+    );
+    assert_eq!(plastic.microfacet.distribution, Distribution::Beckmann);
+    assert!(close(s.material_of(2).kd, Vec3::new(0.1, 0.2, 0.3)));
+    let Bsdf::Conductor(aniso) = model(3) else {
+        panic!("{:?}", model(3))
+    };
+    assert!((aniso.roughness.unwrap().alpha - 0.2).abs() < 1e-6);
+    assert!(
+        s.warnings.iter().any(|w| w.contains("isotropic")),
+        "{:?}",
+        s.warnings
+    );
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+}
+
+#[test]
+fn an_unknown_metal_or_distribution_is_an_error_at_its_line() {
+    for (bad, what) in [
+        (
+            r#"<string name="material" value="Unobtainium"/>"#,
+            "Unobtainium",
+        ),
+        (r#"<string name="distribution" value="phong"/>"#, "phong"),
+    ] {
+        let body =
+            format!("<shape type=\"sphere\"><bsdf type=\"roughconductor\">\n{bad}</bsdf></shape>");
+        let text = scene(&body);
+        let line = 1 + text.lines().position(|l| l.contains(what)).unwrap();
+        let err = load("bad-metal", &[("s.xml", &text)], &LoadOptions::default()).unwrap_err();
+        assert_eq!(err.location.map(|l| l.0), Some(line), "{err}");
+        assert!(err.message.contains(what), "{err}");
+    }
+}

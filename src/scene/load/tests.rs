@@ -187,3 +187,55 @@ fn edit_distance_counts_edits() {
     assert_eq!(edit_distance("", "abc"), 3);
     assert_eq!(edit_distance("kitten", "sitting"), 3);
 }
+
+#[test]
+fn conductor_and_roughplastic_materials() {
+    use crate::bsdf::{Bsdf, Distribution};
+    let text = format!(
+        "{MINIMAL}[materials.gold]\ntype = \"conductor\"\neta = [0.14, 0.37, 1.44]\nk = [3.98, 2.38, 1.60]\nroughness = 0.2\ndistribution = \"beckmann\"\n\
+         [materials.mirror]\ntype = \"conductor\"\n\
+         [materials.coat]\ntype = \"roughplastic\"\nkd = [0.1, 0.2, 0.6]\nior = 1.6\n"
+    );
+    let s = load_str(&text, Path::new("m.toml")).unwrap();
+    let by_name = |n: &str| s.materials.iter().find(|m| m.name == n).unwrap();
+    let Some(Bsdf::Conductor(gold)) = &by_name("gold").bsdf else {
+        panic!()
+    };
+    let rough = gold.roughness.unwrap();
+    assert_eq!(
+        (rough.distribution, rough.alpha),
+        (Distribution::Beckmann, 0.2)
+    );
+    let Some(Bsdf::Conductor(mirror)) = &by_name("mirror").bsdf else {
+        panic!()
+    };
+    assert_eq!(
+        (mirror.eta, mirror.k, mirror.roughness),
+        (Rgb::ZERO, Rgb::ONE, None)
+    );
+    let Some(Bsdf::RoughPlastic(coat)) = &by_name("coat").bsdf else {
+        panic!()
+    };
+    assert_eq!((coat.eta, coat.microfacet.alpha), (1.6, 0.1));
+    assert_eq!(by_name("coat").kd, Rgb::new(0.1, 0.2, 0.6));
+}
+
+#[test]
+fn model_fields_are_checked_where_they_are_written() {
+    for (body, line, field) in [
+        ("type = \"conductor\"\nkd = 0.5\n", 6, "kd"),
+        ("type = \"roughplastic\"\neta = 1.5\n", 6, "eta"),
+        ("kd = 0.5\nroughness = 0.1\n", 6, "roughness"),
+        ("type = \"conductor\"\nroughness = -1\n", 6, "roughness"),
+        (
+            "type = \"conductor\"\nroughness = 0.1\ndistribution = \"phong\"\n",
+            7,
+            "distribution",
+        ),
+        ("type = \"roughplastic\"\nior = 1\n", 6, "ior"),
+    ] {
+        let e = err(&format!("{MINIMAL}[materials.m]\n{body}"));
+        assert!(e.message.contains(field), "{body}: {e}");
+        assert_eq!(e.location.map(|l| l.0), Some(line), "{body}: {e}");
+    }
+}
