@@ -475,3 +475,30 @@ fn an_unknown_metal_or_distribution_is_an_error_at_its_line() {
         assert!(err.message.contains(what), "{err}");
     }
 }
+
+/// Mitsuba's rectangle faces along the normal transform of +z; a mirroring
+/// `to_world` must not turn an area light's emitting side away.
+#[test]
+fn a_mirrored_rectangle_faces_as_in_mitsuba() {
+    for (scale, flip) in [
+        ("1 1 1", false),
+        ("-1 1 1", false),
+        ("1 1 -1", false),
+        ("-1 1 1", true),
+    ] {
+        let body = format!(
+            r#"<shape type="rectangle"><transform name="to_world"><scale value="{scale}"/></transform>
+               <boolean name="flip_normals" value="{flip}"/></shape>"#
+        );
+        let s = ok("mirrored", &body);
+        let Geometry::Quad(q) = &s.shapes[0].geometry else {
+            panic!("a quad")
+        };
+        let normal = q.e1.cross(q.e2).normalize();
+        // The normal transform of +z under a diagonal scale keeps z's sign
+        // of the z factor; flip_normals turns it.
+        let z_sign: f32 = if scale.ends_with("-1") { -1.0 } else { 1.0 };
+        let want = Vec3::Z * if flip { -z_sign } else { z_sign };
+        assert!(close(normal, want), "scale {scale} flip {flip}: {normal}");
+    }
+}

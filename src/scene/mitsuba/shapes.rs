@@ -40,7 +40,16 @@ impl<'e> Builder<'e, '_> {
                 );
             }
         };
-        let geometry = if flip { flipped(geometry) } else { geometry };
+        // Mitsuba's rectangle and disk face along to_world's normal
+        // transform (its inverse transpose) applied to +z; the cross
+        // product of the transformed edges points the other way when
+        // to_world mirrors.
+        let mirrored = matches!(e.kind(), "rectangle" | "disk") && m.determinant() < 0.0;
+        let geometry = if flip != mirrored {
+            flipped(geometry)
+        } else {
+            geometry
+        };
         let (material, uv) = match props.objects("bsdf")?.first() {
             Some(b) => self.material_of(b)?,
             None => (self.default_material(), None),
