@@ -502,3 +502,24 @@ fn a_mirrored_rectangle_faces_as_in_mitsuba() {
         assert!(close(normal, want), "scale {scale} flip {flip}: {normal}");
     }
 }
+
+#[test]
+fn rough_and_thin_dielectrics_become_luz_models() {
+    use luz::bsdf::{Bsdf, Distribution};
+    let body = r#"<shape type="sphere"><bsdf type="roughdielectric">
+          <string name="int_ior" value="diamond"/><float name="alpha" value="0.3"/></bsdf></shape>
+        <shape type="sphere"><bsdf type="thindielectric">
+          <float name="int_ior" value="1.5"/><float name="ext_ior" value="1"/></bsdf></shape>"#;
+    let s = ok("dielectrics", body);
+    let model = |i: u32| s.material_of(i).bsdf.clone().expect("a model");
+    let Bsdf::RoughDielectric(rough) = model(0) else {
+        panic!("{:?}", model(0))
+    };
+    assert!((rough.eta - 2.419 / 1.000277).abs() < 1e-4, "{}", rough.eta);
+    assert_eq!(rough.microfacet.distribution, Distribution::Beckmann);
+    let Bsdf::ThinDielectric(thin) = model(1) else {
+        panic!("{:?}", model(1))
+    };
+    assert_eq!(thin.eta, 1.5);
+    assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+}

@@ -16,7 +16,7 @@
 //! found only by hitting them and count fully.
 
 use crate::accel::Backend;
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, Context};
 use crate::geometry::{PreliminaryHit, SurfacePoint};
 use crate::math::{
     fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
@@ -310,11 +310,15 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         } else {
             material.kd
         };
+        let ctx = Context {
+            diffuse,
+            front: sp.n.dot(wo) > 0.0,
+        };
         let frame = Frame::from_normal(ns);
         let wo_local = frame.to_local(wo);
         let mut u_lobe = sampler.get_1d(vertex, Dimension::Lobe);
         if self.settings.russian_roulette {
-            let q = bsdf.survival(wo_local, diffuse);
+            let q = bsdf.survival(wo_local, &ctx);
             if u_lobe >= q {
                 return None;
             }
@@ -327,12 +331,12 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 bsdf,
                 frame,
                 wo: wo_local,
-                diffuse,
+                ctx,
             };
             *radiance += *beta * self.direct(sp, ns, &glossy, depth, sampler, counts);
         }
         let u = sampler.get_2d(vertex, Dimension::Direction);
-        let s = bsdf.sample(wo_local, u_lobe, u, diffuse)?;
+        let s = bsdf.sample(wo_local, u_lobe, u, &ctx)?;
         *beta *= s.weight;
         Some(Continuation {
             wi: frame.to_world(s.wi),
@@ -357,11 +361,12 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         }
         let scene = self.scene;
         let mut sum = Rgb::ZERO;
+        let reaches = |cos: f32| cos > 0.0 || (cos < 0.0 && surface.transmits());
         for light in &scene.point_lights {
             let to_light = light.position - sp.p;
             let d2 = to_light.length_squared();
             let cos = ns.dot(to_light);
-            if cos <= 0.0 || d2 == 0.0 {
+            if !reaches(cos) || d2 == 0.0 {
                 continue;
             }
             let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, ns);
@@ -386,7 +391,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 let d = w.length();
                 let wi = w / d;
                 let cos = ns.dot(wi);
-                if cos > 0.0 && ls.point.n.dot(-wi) > 0.0 && ls.pdf > 0.0 {
+                if reaches(cos) && ls.point.n.dot(-wi) > 0.0 && ls.pdf > 0.0 {
                     let ray =
                         spawn_ray_to(sp.p, sp.p_err, sp.n, ls.point.p, ls.point.p_err, ls.point.n);
                     counts.shadow += 1;
@@ -409,11 +414,17 @@ struct Continuation {
     pdf: Option<f32>,
 }
 
-/// What light sampling needs of a surface: f·cos θ for a direction `wi`
-/// (world, unit, with `cos` = n_s·wi > 0) and the pdf with which the
-/// surface would have sampled it.
+/// What light sampling needs of a surface: f·|cos θ| for a direction `wi`
+/// (world, unit, with `cos` = n_s·wi) and the pdf with which the surface
+/// would have sampled it.
 trait Reflector {
     fn eval(&self, wi: Vec3, cos: f32) -> (Rgb, f32);
+
+    /// Whether lights behind the surface (`cos` < 0) count too; `eval`
+    /// then sees their negative cosine.
+    fn transmits(&self) -> bool {
+        false
+    }
 }
 
 /// The diffuse lobe of the kd/ks/kt mix: kd/π.
@@ -432,15 +443,19 @@ struct Glossy<'a> {
     bsdf: &'a Bsdf,
     frame: Frame,
     wo: Vec3,
-    diffuse: Rgb,
+    ctx: Context,
 }
 
 impl Reflector for Glossy<'_> {
     fn eval(&self, wi: Vec3, _cos: f32) -> (Rgb, f32) {
         let wi = self.frame.to_local(wi);
         (
-            self.bsdf.eval(self.wo, wi, self.diffuse),
-            self.bsdf.pdf(self.wo, wi),
+            self.bsdf.eval(self.wo, wi, &self.ctx),
+            self.bsdf.pdf(self.wo, wi, &self.ctx),
         )
+    }
+
+    fn transmits(&self) -> bool {
+        self.bsdf.transmits()
     }
 }

@@ -1,7 +1,6 @@
 //! The `[textures]` and `[materials]` tables.
 
 use super::*;
-use crate::bsdf::{Bsdf, Conductor, Distribution, Microfacet, RoughPlastic};
 
 impl Ctx<'_> {
     pub(super) fn texture(&self, name: &str, t: &Sp<TextureDesc>) -> Result<Texture, SceneError> {
@@ -57,6 +56,9 @@ impl Ctx<'_> {
         let md = m.get_ref();
         let dielectric = match md.kind.as_deref() {
             None | Some("diffuse") | Some("standard") => false,
+            Some("dielectric") | Some("glass") if md.roughness.is_some() => {
+                return self.model(name, m, textures)
+            }
             Some("dielectric") | Some("glass") => true,
             Some("conductor") | Some("roughplastic") => return self.model(name, m, textures),
             Some(other) => {
@@ -82,7 +84,7 @@ impl Ctx<'_> {
             return Err(self.field_error(
                 &span,
                 field,
-                "only a conductor or a roughplastic material has this field",
+                "only a conductor, roughplastic or rough dielectric material has this field",
             ));
         }
         let texture = self.texture_of(&span, md, textures)?;
@@ -139,7 +141,7 @@ impl Ctx<'_> {
         })
     }
 
-    fn texture_of(
+    pub(super) fn texture_of(
         &self,
         span: &std::ops::Range<usize>,
         md: &MaterialDesc,
@@ -151,98 +153,5 @@ impl Ctx<'_> {
             })?)),
             None => Ok(None),
         }
-    }
-
-    /// A `conductor` or `roughplastic` material (`crate::bsdf`).
-    fn model(
-        &self,
-        name: &str,
-        m: &Sp<MaterialDesc>,
-        textures: &BTreeMap<String, u32>,
-    ) -> Result<Material, SceneError> {
-        let span = m.span();
-        let md = m.get_ref();
-        let conductor = md.kind.as_deref() == Some("conductor");
-        let not_here = if conductor {
-            vec![
-                ("kd", md.kd.is_some()),
-                ("kt", md.kt.is_some()),
-                ("ior", md.ior.is_some()),
-                ("texture", md.texture.is_some()),
-            ]
-        } else {
-            vec![
-                ("kt", md.kt.is_some()),
-                ("eta", md.eta.is_some()),
-                ("k", md.k.is_some()),
-            ]
-        };
-        if let Some((field, _)) = not_here.into_iter().find(|(_, set)| *set) {
-            return Err(self.field_error(
-                &span,
-                field,
-                format!(
-                    "a {} material has no `{field}`",
-                    md.kind.as_deref().unwrap_or_default()
-                ),
-            ));
-        }
-        let distribution = match md.distribution.as_deref() {
-            None | Some("ggx") => Distribution::Ggx,
-            Some("beckmann") => Distribution::Beckmann,
-            Some(other) => {
-                return Err(self.field_error(
-                    &span,
-                    "distribution",
-                    format!(
-                        "unknown distribution {} (known: ggx, beckmann)",
-                        echo(other)
-                    ),
-                ))
-            }
-        };
-        let roughness = match md.roughness {
-            Some(a) if !(a > 0.0 && a.is_finite()) => {
-                return Err(self.field_error(
-                    &span,
-                    "roughness",
-                    format!("must be positive and finite, got {a}"),
-                ))
-            }
-            a => a,
-        };
-        let tint = self.color(&span, "ks", md.ks, Rgb::ONE, 1.0)?;
-        let emission = self.color(&span, "emission", md.emission, Rgb::ZERO, f32::INFINITY)?;
-        let (kd, texture, bsdf) = if conductor {
-            let bsdf = Bsdf::Conductor(Conductor {
-                eta: self.color(&span, "eta", md.eta, Rgb::ZERO, f32::INFINITY)?,
-                k: self.color(&span, "k", md.k, Rgb::ONE, f32::INFINITY)?,
-                tint,
-                roughness: roughness.map(|a| Microfacet::new(distribution, a)),
-            });
-            (Rgb::ZERO, None, bsdf)
-        } else {
-            let kd = self.color(&span, "kd", md.kd, Rgb::splat(0.5), 1.0)?;
-            let ior = md.ior.unwrap_or(1.49);
-            if !(ior > 0.0 && ior.is_finite() && ior != 1.0) {
-                return Err(self.field_error(
-                    &span,
-                    "ior",
-                    format!("must be positive, finite and not 1, got {ior}"),
-                ));
-            }
-            let coating = Microfacet::new(distribution, roughness.unwrap_or(0.1));
-            let mean = (kd.x + kd.y + kd.z) / 3.0;
-            let bsdf = Bsdf::RoughPlastic(RoughPlastic::new(coating, ior, tint, mean, false));
-            (kd, self.texture_of(&span, md, textures)?, bsdf)
-        };
-        Ok(Material {
-            name: name.to_string(),
-            kd,
-            emission,
-            texture,
-            bsdf: Some(bsdf),
-            ..Material::default()
-        })
     }
 }

@@ -20,6 +20,7 @@ mod camera;
 mod desc;
 mod materials;
 mod messages;
+mod models;
 mod shapes;
 #[cfg(test)]
 mod tests;

@@ -194,7 +194,8 @@ fn conductor_and_roughplastic_materials() {
     let text = format!(
         "{MINIMAL}[materials.gold]\ntype = \"conductor\"\neta = [0.14, 0.37, 1.44]\nk = [3.98, 2.38, 1.60]\nroughness = 0.2\ndistribution = \"beckmann\"\n\
          [materials.mirror]\ntype = \"conductor\"\n\
-         [materials.coat]\ntype = \"roughplastic\"\nkd = [0.1, 0.2, 0.6]\nior = 1.6\n"
+         [materials.coat]\ntype = \"roughplastic\"\nkd = [0.1, 0.2, 0.6]\nior = 1.6\n\
+         [materials.frost]\ntype = \"dielectric\"\nroughness = 0.3\nkt = 0.9\n"
     );
     let s = load_str(&text, Path::new("m.toml")).unwrap();
     let by_name = |n: &str| s.materials.iter().find(|m| m.name == n).unwrap();
@@ -218,6 +219,20 @@ fn conductor_and_roughplastic_materials() {
     };
     assert_eq!((coat.eta, coat.microfacet.alpha), (1.6, 0.1));
     assert_eq!(by_name("coat").kd, Rgb::new(0.1, 0.2, 0.6));
+    let Some(Bsdf::RoughDielectric(frost)) = &by_name("frost").bsdf else {
+        panic!()
+    };
+    assert_eq!(
+        (frost.eta, frost.tint_t, frost.microfacet.alpha),
+        (1.5, Rgb::splat(0.9), 0.3)
+    );
+    // Without a roughness, a dielectric stays the smooth Fresnel glass.
+    let smooth = format!("{MINIMAL}[materials.g]\ntype = \"dielectric\"\n");
+    let s = load_str(&smooth, Path::new("m.toml")).unwrap();
+    assert!(s
+        .materials
+        .iter()
+        .any(|m| m.name == "g" && m.dielectric && m.bsdf.is_none()));
 }
 
 #[test]
@@ -233,6 +248,11 @@ fn model_fields_are_checked_where_they_are_written() {
             "distribution",
         ),
         ("type = \"roughplastic\"\nior = 1\n", 6, "ior"),
+        (
+            "type = \"dielectric\"\nroughness = 0.1\nkd = 0.5\n",
+            7,
+            "kd",
+        ),
     ] {
         let e = err(&format!("{MINIMAL}[materials.m]\n{body}"));
         assert!(e.message.contains(field), "{body}: {e}");

@@ -177,16 +177,6 @@ fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     bsdf(b, first)
 }
 
-/// The properties of a rough BSDF's microfacet distribution, which luz
-/// reads and substitutes (with a warning) where it has no rough model.
-const ROUGHNESS: [&str; 5] = [
-    "alpha",
-    "alpha_u",
-    "alpha_v",
-    "distribution",
-    "sample_visible",
-];
-
 /// A rough model's microfacet distribution: Mitsuba's `distribution`
 /// (default Beckmann) and `alpha` (default 0.1). luz's roughness is
 /// isotropic and its normals are always sampled as seen from the viewer.
@@ -331,21 +321,23 @@ fn relative_ior(props: &Props, int_default: f64) -> Result<f64, SceneError> {
 
 fn dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
-    if e.kind() == "roughdielectric" {
-        for n in ROUGHNESS {
-            props.accept(n);
-        }
-        b.problems.warn(
-            &e.loc,
-            format!(
-                "{}: the roughness is substituted by a smooth dielectric",
-                e.describe()
-            ),
-        )?;
-    }
     let ior = relative_ior(props, 1.5046)?;
     let kt = tint(b, props, "specular_transmittance")?;
-    if tint(b, props, "specular_reflectance")? != Rgb::ONE {
+    let kr = tint(b, props, "specular_reflectance")?;
+    if e.kind() == "roughdielectric" {
+        let model = crate::bsdf::RoughDielectric {
+            microfacet: microfacet(b, props)?,
+            eta: ior as f32,
+            tint_r: kr,
+            tint_t: kt,
+        };
+        return Ok(Bsdf::of(Material {
+            kd: Rgb::ZERO,
+            bsdf: Some(crate::bsdf::Bsdf::RoughDielectric(model)),
+            ..Material::default()
+        }));
+    }
+    if kr != Rgb::ONE {
         b.problems.warn(
             &e.loc,
             format!("{}: luz's dielectric reflects by the Fresnel term alone; `specular_reflectance` is substituted by 1", e.describe()),
@@ -380,22 +372,16 @@ fn f0(ior: f64) -> f32 {
     (((ior - 1.0) / (ior + 1.0)).powi(2)) as f32
 }
 
-/// A thin sheet reflects R + T²R/(1 − R²) = 2R/(1 + R) and passes the
-/// rest straight on: a mirror and refraction with index 1.
+/// A thin sheet: luz's `ThinDielectric`, as Mitsuba's.
 fn thin_dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
-    let r = f0(relative_ior(props, 1.5046)?);
-    let r = 2.0 * r / (1.0 + r);
-    b.problems.warn(
-        &props.elem.loc,
-        format!("{}: substituted a fixed mirror of {r:.4} (its normal-incidence reflectance) plus straight transmission; the Fresnel term's change with angle is left out", props.elem.describe()),
-    )?;
-    let ks = tint(b, props, "specular_reflectance")? * r;
-    let kt = tint(b, props, "specular_transmittance")? * (1.0 - r);
+    let model = crate::bsdf::ThinDielectric {
+        eta: relative_ior(props, 1.5046)? as f32,
+        tint_r: tint(b, props, "specular_reflectance")?,
+        tint_t: tint(b, props, "specular_transmittance")?,
+    };
     Ok(Bsdf::of(Material {
         kd: Rgb::ZERO,
-        ks,
-        kt,
-        ior: 1.0,
+        bsdf: Some(crate::bsdf::Bsdf::ThinDielectric(model)),
         ..Material::default()
     }))
 }
