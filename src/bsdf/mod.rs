@@ -19,7 +19,7 @@ mod tests;
 pub use conductor::Conductor;
 pub use dielectric::{RoughDielectric, ThinDielectric};
 pub use microfacet::{Distribution, Microfacet};
-pub use plastic::RoughPlastic;
+pub use plastic::{Plastic, RoughPlastic};
 
 use crate::math::{Rgb, Vec2, Vec3};
 
@@ -48,6 +48,7 @@ pub struct Context {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Bsdf {
     Conductor(Conductor),
+    Plastic(Plastic),
     RoughPlastic(RoughPlastic),
     RoughDielectric(RoughDielectric),
     ThinDielectric(ThinDielectric),
@@ -74,6 +75,7 @@ impl Bsdf {
     pub fn survival(&self, wo: Vec3, ctx: &Context) -> f32 {
         match self {
             Bsdf::Conductor(c) => c.survival(),
+            Bsdf::Plastic(p) => p.survival(wo, ctx.diffuse),
             Bsdf::RoughPlastic(p) => p.survival(wo, ctx.diffuse),
             Bsdf::RoughDielectric(d) => d.survival(),
             Bsdf::ThinDielectric(t) => t.survival(),
@@ -83,6 +85,7 @@ impl Bsdf {
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, ctx: &Context) -> Option<BsdfSample> {
         match self {
             Bsdf::Conductor(c) => c.sample(wo, u),
+            Bsdf::Plastic(p) => p.sample(wo, u_lobe, u, ctx.diffuse),
             Bsdf::RoughPlastic(p) => p.sample(wo, u_lobe, u, ctx.diffuse),
             Bsdf::RoughDielectric(d) => d.sample(wo, u_lobe, u, relative(d.eta, ctx)),
             Bsdf::ThinDielectric(t) => Some(t.sample(wo, u_lobe)),
@@ -93,6 +96,7 @@ impl Bsdf {
     pub fn eval(&self, wo: Vec3, wi: Vec3, ctx: &Context) -> Rgb {
         match self {
             Bsdf::Conductor(c) => c.eval(wo, wi),
+            Bsdf::Plastic(p) => p.eval(wo, wi, ctx.diffuse),
             Bsdf::RoughPlastic(p) => p.eval(wo, wi, ctx.diffuse),
             Bsdf::RoughDielectric(d) => d.eval(wo, wi, relative(d.eta, ctx)),
             Bsdf::ThinDielectric(_) => Rgb::ZERO,
@@ -102,6 +106,7 @@ impl Bsdf {
     pub fn pdf(&self, wo: Vec3, wi: Vec3, ctx: &Context) -> f32 {
         match self {
             Bsdf::Conductor(c) => c.pdf(wo, wi),
+            Bsdf::Plastic(p) => p.pdf(wo, wi),
             Bsdf::RoughPlastic(p) => p.pdf(wo, wi),
             Bsdf::RoughDielectric(d) => d.pdf(wo, wi, relative(d.eta, ctx)),
             Bsdf::ThinDielectric(_) => 0.0,

@@ -185,3 +185,105 @@ fn coating_average(md: &Microfacet, cos: f32, eta: f32, what: Interaction) -> f3
     }
     sum as f32
 }
+
+/// Smooth plastic: a diffuse base under a smooth dielectric coating, as
+/// Mitsuba 3's `plastic`. The coating reflects as a mirror (a delta lobe) by
+/// its Fresnel term; the base's light crosses it twice and is attenuated by
+/// the coating's diffuse reflectance from inside.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plastic {
+    pub eta: f32,
+    pub tint: Rgb,
+    pub nonlinear: bool,
+    specular_weight: f32,
+    /// The coating's hemispherical (diffuse) reflectance from inside.
+    internal_reflectance: f32,
+}
+
+impl Plastic {
+    pub fn new(eta: f32, tint: Rgb, diffuse_mean: f32, nonlinear: bool) -> Self {
+        let s_mean = (tint.x + tint.y + tint.z) / 3.0;
+        Self {
+            eta,
+            tint,
+            nonlinear,
+            specular_weight: s_mean / (diffuse_mean + s_mean),
+            internal_reflectance: fresnel_diffuse_reflectance(1.0 / eta),
+        }
+    }
+
+    fn specular_probability(&self, cos_o: f32) -> f32 {
+        let f = fresnel_dielectric(cos_o, self.eta);
+        let specular = f * self.specular_weight;
+        specular / (specular + (1.0 - f) * (1.0 - self.specular_weight))
+    }
+
+    pub fn survival(&self, wo: Vec3, diffuse: Rgb) -> f32 {
+        let f = fresnel_dielectric(wo.z.clamp(0.0, 1.0), self.eta);
+        (f * self.tint.max_element() + (1.0 - f) * diffuse.max_element()).min(1.0)
+    }
+
+    pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2, diffuse: Rgb) -> Option<BsdfSample> {
+        if wo.z <= 0.0 {
+            return None;
+        }
+        let p = self.specular_probability(wo.z);
+        if u_lobe < p {
+            let f = fresnel_dielectric(wo.z, self.eta);
+            return Some(BsdfSample {
+                wi: Vec3::new(-wo.x, -wo.y, wo.z),
+                weight: self.tint * (f / p),
+                pdf: p,
+                delta: true,
+            });
+        }
+        let wi = cosine_hemisphere(u);
+        let pdf = self.pdf(wo, wi);
+        (pdf > 0.0).then(|| BsdfSample {
+            wi,
+            weight: self.eval(wo, wi, diffuse) / pdf,
+            pdf,
+            delta: false,
+        })
+    }
+
+    /// f·cos θi of the diffuse lobe (the mirror is a delta).
+    pub fn eval(&self, wo: Vec3, wi: Vec3, diffuse: Rgb) -> Rgb {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Rgb::ZERO;
+        }
+        let bounced = if self.nonlinear {
+            diffuse * self.internal_reflectance
+        } else {
+            Rgb::splat(self.internal_reflectance)
+        };
+        let crossing =
+            (1.0 - fresnel_dielectric(wo.z, self.eta)) * (1.0 - fresnel_dielectric(wi.z, self.eta));
+        diffuse / (Rgb::ONE - bounced)
+            * (cosine_hemisphere_pdf(wi.z) * crossing / (self.eta * self.eta))
+    }
+
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        (1.0 - self.specular_probability(wo.z)) * cosine_hemisphere_pdf(wi.z)
+    }
+}
+
+/// The hemispherical reflectance of a smooth interface of relative index
+/// `eta` under uniform diffuse light, by the fits Mitsuba uses: Egan and
+/// Hilgeman (1973) for η < 1, d'Eon and Irving (2011) otherwise.
+pub fn fresnel_diffuse_reflectance(eta: f32) -> f32 {
+    let inv = 1.0 / eta;
+    if eta < 1.0 {
+        0.0636 * inv + eta * (eta * -1.4399 + 0.7099) + 0.6681
+    } else {
+        [-3.4793, 6.75335, -7.80989, 4.98554, -1.36881]
+            .iter()
+            .rev()
+            .fold(0.0, |acc, c| c + inv * acc)
+            * inv
+            + 0.919317
+    }
+}

@@ -59,6 +59,14 @@ fn glossy() -> Vec<(String, Bsdf, Context)> {
             }
         }
     }
+    for eta in [1.3, 1.9] {
+        let smooth = Bsdf::Plastic(Plastic::new(eta, Rgb::ONE, 0.5, false));
+        out.push((
+            format!("smooth plastic {eta}"),
+            smooth,
+            ctx(Rgb::splat(0.8), true),
+        ));
+    }
     let coloured = ctx(Rgb::new(0.9, 0.5, 0.1), true);
     let model = plastic(Distribution::Ggx, 0.2, 2.0, true);
     out.push(("plastic nonlinear".into(), model, coloured));
@@ -118,6 +126,13 @@ fn white_furnace() {
             models.push((format!("mirror {d:?} {alpha}"), mirror, alpha, true));
             let coat = plastic(d, alpha, 1.5, false);
             models.push((format!("plastic {d:?} {alpha}"), coat, alpha, false));
+            let smooth = Bsdf::Plastic(Plastic::new(1.5, Rgb::ONE, 0.5, false));
+            models.push((
+                format!("smooth plastic {d:?} {alpha}"),
+                smooth,
+                alpha,
+                false,
+            ));
             let matched = rough_dielectric(d, alpha, 1.0001);
             models.push((format!("dielectric {d:?} {alpha}"), matched, alpha, true));
         }
@@ -159,7 +174,8 @@ fn reciprocity() {
     }
 }
 
-/// `sample`'s weight and pdf are `eval` / `pdf` at the sampled direction.
+/// `sample`'s weight and pdf are `eval` / `pdf` at the sampled direction
+/// (for the samples of non-delta lobes).
 #[test]
 fn samples_agree_with_eval_and_pdf() {
     let mut rng = Rng::new(9, 0);
@@ -169,6 +185,10 @@ fn samples_agree_with_eval_and_pdf() {
                 let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d(), &vertex) else {
                     continue;
                 };
+                // A delta sample's weight is not a density ratio.
+                if s.delta {
+                    continue;
+                }
                 let pdf = bsdf.pdf(wo, s.wi, &vertex);
                 let same_pdf = (pdf - s.pdf).abs() <= 2e-3 * pdf.max(1e-3);
                 assert!(
@@ -201,7 +221,10 @@ fn sampling_matches_the_pdf_chi_square() {
         for wo in views() {
             let mut observed = vec![0u32; n_cos * n_phi];
             for _ in 0..n {
-                if let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d(), &vertex) {
+                // A delta lobe's samples fall outside the density; `pdf`
+                // integrates to the share of the others.
+                let sample = bsdf.sample(wo, rng.next_f32(), rng.next_2d(), &vertex);
+                if let Some(s) = sample.filter(|s| !s.delta) {
                     let c = (s.wi.z as f64 - lo) / span;
                     let cell_c = ((c * n_cos as f64) as usize).min(n_cos - 1);
                     let phi = (s.wi.y as f64).atan2(s.wi.x as f64).rem_euclid(TAU);
@@ -268,7 +291,8 @@ fn chi_square_quantile(k: f64, z: f64) -> f64 {
 }
 
 /// The integral of `eval` over the directions (by uniform quadrature) is
-/// the mean sampled weight: no energy is lost or gained between the two.
+/// the mean sampled weight of the non-delta lobes: no energy is lost or
+/// gained between the two.
 #[test]
 fn eval_integrates_to_the_sampled_albedo() {
     let mut rng = Rng::new(13, 0);
@@ -288,12 +312,32 @@ fn eval_integrates_to_the_sampled_albedo() {
         let n = 200_000;
         let mut sum = 0.0f64;
         for _ in 0..n {
-            if let Some(s) = bsdf.sample(wo, rng.next_f32(), rng.next_2d(), &vertex) {
+            let sample = bsdf.sample(wo, rng.next_f32(), rng.next_2d(), &vertex);
+            if let Some(s) = sample.filter(|s| !s.delta) {
                 sum += s.weight.y as f64;
             }
         }
         let sampled = sum / n as f64;
         let agree = (integral - sampled).abs() < 0.01 + 0.01 * integral;
         assert!(agree, "{name}: ∫ eval {integral} vs E[weight] {sampled}");
+    }
+}
+
+/// Mitsuba's fits of the diffuse Fresnel reflectance against 2∫F(μ)μ dμ.
+#[test]
+fn diffuse_fresnel_reflectance_matches_its_integral() {
+    for eta in [0.5, 0.67, 0.8, 1.2, 1.5, 2.0, 3.0] {
+        let n = 100_000;
+        let integral: f64 = (0..n)
+            .map(|i| {
+                let mu = (i as f64 + 0.5) / n as f64;
+                2.0 * crate::math::fresnel_dielectric(mu as f32, eta) as f64 * mu / n as f64
+            })
+            .sum();
+        let fit = plastic::fresnel_diffuse_reflectance(eta) as f64;
+        assert!(
+            (fit - integral).abs() < 0.01 * integral.max(0.05),
+            "η {eta}: fit {fit} vs {integral}"
+        );
     }
 }

@@ -60,13 +60,15 @@ impl Ctx<'_> {
                 return self.model(name, m, textures)
             }
             Some("dielectric") | Some("glass") => true,
-            Some("conductor") | Some("roughplastic") => return self.model(name, m, textures),
+            Some("conductor") | Some("plastic") | Some("roughplastic") => {
+                return self.model(name, m, textures)
+            }
             Some(other) => {
                 return Err(self.field_error(
                     &span,
                     "type",
                     format!(
-                        "unknown material type {} (known: standard, dielectric, conductor, roughplastic)",
+                        "unknown material type {} (known: standard, dielectric, conductor, plastic, roughplastic)",
                         echo(other)
                     ),
                 ))
@@ -84,7 +86,7 @@ impl Ctx<'_> {
             return Err(self.field_error(
                 &span,
                 field,
-                "only a conductor, roughplastic or rough dielectric material has this field",
+                "only a conductor, plastic, roughplastic or rough dielectric material has this field",
             ));
         }
         let texture = self.texture_of(&span, md, textures)?;

@@ -1,12 +1,15 @@
 //! `[materials.NAME]` of the reflection models (`crate::bsdf`): conductors,
-//! rough plastic and rough dielectrics.
+//! smooth and rough plastic and rough dielectrics.
 
 use super::*;
-use crate::bsdf::{Bsdf, Conductor, Distribution, Microfacet, RoughDielectric, RoughPlastic};
+use crate::bsdf::{
+    Bsdf, Conductor, Distribution, Microfacet, Plastic, RoughDielectric, RoughPlastic,
+};
 
 #[derive(Clone, Copy, PartialEq)]
 enum Kind {
     Conductor,
+    Plastic,
     RoughPlastic,
     RoughDielectric,
 }
@@ -15,6 +18,7 @@ impl Kind {
     fn of(md: &MaterialDesc) -> Self {
         match md.kind.as_deref() {
             Some("conductor") => Kind::Conductor,
+            Some("plastic") => Kind::Plastic,
             Some("roughplastic") => Kind::RoughPlastic,
             _ => Kind::RoughDielectric,
         }
@@ -28,6 +32,13 @@ impl Kind {
                 ("kt", md.kt.is_some()),
                 ("ior", md.ior.is_some()),
                 ("texture", md.texture.is_some()),
+            ],
+            Kind::Plastic => vec![
+                ("kt", md.kt.is_some()),
+                ("eta", md.eta.is_some()),
+                ("k", md.k.is_some()),
+                ("roughness", md.roughness.is_some()),
+                ("distribution", md.distribution.is_some()),
             ],
             Kind::RoughPlastic => vec![
                 ("kt", md.kt.is_some()),
@@ -73,6 +84,14 @@ impl Ctx<'_> {
                     roughness: roughness.map(|a| Microfacet::new(distribution, a)),
                 });
                 (Rgb::ZERO, None, bsdf)
+            }
+            Kind::Plastic => {
+                let kd = self.color(&span, "kd", md.kd, Rgb::splat(0.5), 1.0)?;
+                let ior = self.interface_ior(&span, md, 1.49)?;
+                let mean = (kd.x + kd.y + kd.z) / 3.0;
+                let model = Plastic::new(ior, tint, mean, false);
+                let texture = self.texture_of(&span, md, textures)?;
+                (kd, texture, Bsdf::Plastic(model))
             }
             Kind::RoughPlastic => {
                 let kd = self.color(&span, "kd", md.kd, Rgb::splat(0.5), 1.0)?;

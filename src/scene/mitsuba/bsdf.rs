@@ -367,11 +367,6 @@ fn tint(b: &mut Builder, props: &Props, name: &str) -> Result<Rgb, SceneError> {
     }
 }
 
-/// Normal-incidence Fresnel reflectance of a dielectric interface.
-fn f0(ior: f64) -> f32 {
-    (((ior - 1.0) / (ior + 1.0)).powi(2)) as f32
-}
-
 /// A thin sheet: luz's `ThinDielectric`, as Mitsuba's.
 fn thin_dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let model = crate::bsdf::ThinDielectric {
@@ -386,8 +381,7 @@ fn thin_dielectric(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     }))
 }
 
-/// `roughplastic` as luz's rough plastic; the smooth `plastic` as kd under
-/// a coating, kd·(1 − F0) + a mirror of F0, both at normal incidence.
+/// `roughplastic` and `plastic` as luz's rough and smooth plastics.
 fn plastic(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let e = props.elem;
     let ior = relative_ior(props, 1.49)?;
@@ -410,17 +404,14 @@ fn plastic(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
             uv,
         });
     }
-    let f = f0(ior);
-    props.accept("nonlinear");
-    b.problems.warn(
-        &e.loc,
-        format!("{}: substituted kd·(1 − F0) + a mirror of F0 = {f:.4} (the coating's normal-incidence Fresnel reflectance)", e.describe()),
-    )?;
+    let nonlinear = props.boolean("nonlinear")?.unwrap_or(false);
+    let mean = (kd.x + kd.y + kd.z) / 3.0;
+    let model = crate::bsdf::Plastic::new(ior as f32, tint, mean, nonlinear);
     Ok(Bsdf {
         material: Material {
-            kd: kd * (1.0 - f),
-            ks: tint * f,
+            kd,
             texture,
+            bsdf: Some(crate::bsdf::Bsdf::Plastic(model)),
             ..Material::default()
         },
         uv,
