@@ -139,6 +139,7 @@ mod tests {
             target: Vec3::ZERO,
             up: Vec3::Y,
             fov_y: 40.0,
+            fov_axis: crate::scene::FovAxis::Y,
             width: 8,
             height: 8,
         };

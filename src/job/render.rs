@@ -38,8 +38,7 @@ impl Overrides {
     pub fn load(&self, path: &Path) -> Result<Scene, SceneError> {
         let mut scene = crate::scene::load_with(path, &self.load)?;
         if let Some((w, h)) = self.resolution {
-            scene.camera.width = w;
-            scene.camera.height = h;
+            scene.camera.resize(w, h);
         }
         let settings = &mut scene.render;
         settings.spp = self.spp.unwrap_or(settings.spp);

@@ -9,7 +9,7 @@ pub mod mesh_io;
 pub mod mitsuba;
 pub mod texture;
 
-pub use camera::Camera;
+pub use camera::{Camera, FovAxis};
 pub use light::{LightSampler, PointLight};
 pub use load::{load, load_bytes, load_bytes_with, load_str, load_with, LoadOptions, SceneError};
 pub use material::{Lobes, Material, Shading};
@@ -133,6 +133,7 @@ impl Scene {
             target: Vec3::ZERO,
             up: Vec3::Y,
             fov_y: 40.0,
+            fov_axis: FovAxis::Y,
             width: 1,
             height: 1,
         };

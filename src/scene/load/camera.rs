@@ -53,6 +53,7 @@ impl Ctx<'_> {
             target,
             up,
             fov_y: fov,
+            fov_axis: FovAxis::Y,
             width,
             height,
         };

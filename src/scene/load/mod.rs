@@ -4,7 +4,9 @@
 //! the byte span of every table, then `build` validates them and builds the
 //! `Scene`. Every error names the file, the line and column, and the field.
 
-use super::{Camera, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform};
+use super::{
+    Camera, FovAxis, Material, PointLight, RenderSettings, Scene, Shape, Texture, UvTransform,
+};
 use crate::echo::echo;
 use crate::geometry::{within_bounds, Cuboid, Geometry, Mesh, Plane, Quad, Sphere, MAX_COORDINATE};
 use crate::location::{line_column, read_regular_file};

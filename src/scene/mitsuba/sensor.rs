@@ -6,7 +6,7 @@ use super::xml::Elem;
 use super::Problems;
 use crate::geometry::within_bounds;
 use crate::render::film::check_resolution;
-use crate::scene::{Camera, RenderSettings, SceneError};
+use crate::scene::{Camera, FovAxis, RenderSettings, SceneError};
 use glam::{DMat4, DVec3};
 
 /// Mitsuba's `max_depth = -1` (unbounded), as luz counts: deep enough that
@@ -46,33 +46,18 @@ pub(super) fn sensor(e: &Elem, ids: &Ids, problems: &mut Problems) -> Result<Sen
             .loc
             .error(format!("`fov`: must be in (0, 180) degrees, got {fov_x}")));
     }
-    let fov_y = vertical_fov(fov_x, axis, width, height).ok_or_else(|| {
+    let fov_axis = FovAxis::parse(axis).ok_or_else(|| {
         e.loc.error(format!(
             "`fov_axis`: unknown axis {:?} (known: x, y, diagonal, smaller, larger)",
             axis
         ))
     })?;
-    let camera = camera(e, &to_world, fov_y as f32, width, height, problems)?;
+    let fov_y = fov_axis.vertical_fov(fov_x, width, height);
+    let mut camera = camera(e, &to_world, fov_y as f32, width, height, problems)?;
+    camera.fov_axis = fov_axis;
     let (spp, seed) = sampler(&props, ids, problems)?;
     props.finish(problems)?;
     Ok(Sensor { camera, spp, seed })
-}
-
-/// The vertical field of view of `fov` measured along `axis`.
-pub(super) fn vertical_fov(fov: f64, axis: &str, width: u32, height: u32) -> Option<f64> {
-    let (w, h) = (width as f64, height as f64);
-    let t = (0.5 * fov.to_radians()).tan();
-    let ty = match axis {
-        "y" => t,
-        "x" => t * h / w,
-        "diagonal" => t * h / (w * w + h * h).sqrt(),
-        "smaller" if w < h => t * h / w,
-        "smaller" => t,
-        "larger" if w > h => t * h / w,
-        "larger" => t,
-        _ => return None,
-    };
-    Some(2.0 * ty.atan().to_degrees())
 }
 
 /// The horizontal field of view of a lens on 36 mm wide film.
@@ -163,6 +148,7 @@ fn camera(
         target,
         up: up.as_vec3(),
         fov_y,
+        fov_axis: FovAxis::X,
         width,
         height,
     })
@@ -241,28 +227,4 @@ pub(super) fn integrator(
         settings.russian_roulette = false;
     }
     props.finish(problems)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn fov_axes() {
-        let close = |a: Option<f64>, b: f64| (a.unwrap() - b).abs() < 1e-9;
-        assert!(close(vertical_fov(40.0, "y", 200, 100), 40.0));
-        assert!(close(
-            vertical_fov(90.0, "x", 200, 100),
-            2.0 * 0.5f64.atan().to_degrees()
-        ));
-        assert!(close(vertical_fov(90.0, "smaller", 200, 100), 90.0));
-        assert!(close(
-            vertical_fov(90.0, "smaller", 100, 200),
-            2.0 * 2f64.atan().to_degrees()
-        ));
-        assert!(close(vertical_fov(90.0, "larger", 100, 200), 90.0));
-        let d = vertical_fov(90.0, "diagonal", 300, 400).unwrap();
-        assert!((d - 2.0 * 0.8f64.atan().to_degrees()).abs() < 1e-9);
-        assert!(vertical_fov(90.0, "z", 1, 1).is_none());
-    }
 }
