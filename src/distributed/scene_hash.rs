@@ -8,7 +8,7 @@
 //! decimal text instead took 13% of its load (issue 18).
 
 use crate::geometry::Geometry;
-use crate::scene::{Material, Scene, Texture};
+use crate::scene::{Environment, Material, Scene, Texture};
 use std::fmt::Write as _;
 use xxhash_rust::xxh3::Xxh3;
 
@@ -33,15 +33,25 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         })
         .collect();
     h.text(format_args!(
-        "{:?} {:?} {:?} {:?} max_depth {} rr {} sampler {}",
+        "{:?} {:?} {:?} max_depth {} rr {} sampler {}",
         scene.camera,
         materials,
         scene.point_lights,
-        scene.environment,
         r.max_depth,
         r.russian_roulette,
         r.sampler.name()
     ));
+    match &scene.environment {
+        None => h.text(format_args!("no environment")),
+        Some(Environment::Constant(c)) => h.text(format_args!("environment {c:?}")),
+        Some(Environment::Map(m)) => {
+            h.text(format_args!(
+                "environment map {}x{} scale {:?} to_world {:?}",
+                m.width, m.height, m.scale, m.to_world
+            ));
+            h.floats(bytemuck::cast_slice(&m.texels));
+        }
+    }
     for texture in &scene.textures {
         match texture {
             Texture::Image {
@@ -115,9 +125,10 @@ impl std::fmt::Write for Hasher {
 mod tests {
     use super::*;
     use crate::geometry::{Mesh, Sphere};
+    use crate::math::Mat3;
     use crate::math::{Vec2, Vec3};
     use crate::sampling::SamplerKind;
-    use crate::scene::{Camera, Shape};
+    use crate::scene::{Camera, EnvMap, Shape};
 
     fn scene() -> Scene {
         let mesh = Mesh {
@@ -199,7 +210,9 @@ mod tests {
                     SamplerKind::Independent => SamplerKind::Sobol,
                 }
             }),
-            ("the environment", |s| s.environment = Some(Vec3::ONE)),
+            ("the environment", |s| {
+                s.environment = Some(Environment::Constant(Vec3::ONE))
+            }),
         ];
         for (what, change) in changes {
             let mut s = scene();
@@ -216,5 +229,29 @@ mod tests {
         s.render.spp = 1024;
         s.materials[0].name = "renamed".into();
         assert_eq!(scene_hash(&s), base);
+    }
+
+    fn with_map(texel: f32, scale: f32, to_world: Mat3) -> Scene {
+        let mut s = scene();
+        let texels = vec![Vec3::splat(0.25), Vec3::splat(texel), Vec3::ONE, Vec3::ZERO];
+        s.environment = Some(Environment::Map(EnvMap::new(2, 2, texels, scale, to_world)));
+        s
+    }
+
+    #[test]
+    fn notices_every_change_of_an_environment_map() {
+        let base = scene_hash(&with_map(0.5, 1.0, Mat3::IDENTITY));
+        assert_eq!(base, scene_hash(&with_map(0.5, 1.0, Mat3::IDENTITY)));
+        for (what, changed) in [
+            ("a texel", with_map(0.6, 1.0, Mat3::IDENTITY)),
+            ("the scale", with_map(0.5, 2.0, Mat3::IDENTITY)),
+            (
+                "the rotation",
+                with_map(0.5, 1.0, Mat3::from_rotation_y(1.0)),
+            ),
+            ("a constant instead", scene()),
+        ] {
+            assert_ne!(base, scene_hash(&changed), "{what}");
+        }
     }
 }

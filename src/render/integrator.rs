@@ -9,17 +9,18 @@
 //! roulette off the probabilities are normalised (no absorption) and only
 //! `max_depth` ends a path.
 //!
-//! On the diffuse lobe, point lights and `nee = true` emitters are sampled
-//! explicitly; a BSDF-sampled ray that then hits such an emitter is weighted
-//! by the power heuristic against the light-sampling pdf, so nothing is
-//! counted twice. Emitters that are not sampled, and the environment, are
-//! found only by hitting them and count fully.
+//! On the diffuse lobe and on the non-delta lobes of the `crate::bsdf`
+//! models, point lights, `nee = true` emitters and the environment are
+//! sampled explicitly; a BSDF-sampled ray that then hits such an emitter, or
+//! escapes to the environment, is weighted by the power heuristic against
+//! the light-sampling pdf, so nothing is counted twice. Emitters that are
+//! not sampled are found only by hitting them and count fully.
 
 use crate::accel::Backend;
 use crate::bsdf::{Bsdf, Context};
 use crate::geometry::{PreliminaryHit, SurfacePoint};
 use crate::math::{
-    fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec3,
+    fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec2, Vec3,
 };
 use crate::sampling::{cosine_hemisphere, power_heuristic, Dimension, Sampler};
 
@@ -74,14 +75,24 @@ pub struct Integrator<'a, B: Backend + ?Sized> {
     scene: &'a Scene,
     backend: &'a B,
     settings: IntegratorSettings,
+    /// The probability that light sampling picks the environment rather
+    /// than an emitter: 0 without an environment, 1 with no emitter to
+    /// sample, else ½.
+    env_share: f32,
 }
 
 impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     pub fn new(scene: &'a Scene, backend: &'a B, settings: IntegratorSettings) -> Self {
+        let env_share = match (&scene.environment, scene.lights.is_empty()) {
+            (None, _) => 0.0,
+            (Some(_), true) => 1.0,
+            (Some(_), false) => 0.5,
+        };
         Self {
             scene,
             backend,
             settings,
+            env_share,
         }
     }
 
@@ -99,8 +110,14 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         let mut depth = 1;
         while depth <= max_depth {
             let Some(hit) = self.backend.intersect(&ray) else {
-                if let Some(env) = scene.environment {
-                    radiance += beta * env;
+                if let Some(env) = &scene.environment {
+                    let weight = match prev {
+                        Some((_, pdf_bsdf)) => {
+                            power_heuristic(pdf_bsdf, self.env_share * env.pdf(ray.dir))
+                        }
+                        None => 1.0,
+                    };
+                    radiance += beta * env.eval(ray.dir) * weight;
                 }
                 break;
             };
@@ -114,8 +131,8 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             if shading.emissive && cos_o > 0.0 {
                 let weight = match prev {
                     Some((from, pdf_bsdf)) if shape.nee => {
-                        let pdf_light =
-                            scene
+                        let pdf_light = (1.0 - self.env_share)
+                            * scene
                                 .lights
                                 .pdf(&scene.shapes, hit.geom, hit.prim, from, &sp);
                         power_heuristic(pdf_bsdf, pdf_light)
@@ -361,12 +378,11 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         }
         let scene = self.scene;
         let mut sum = Rgb::ZERO;
-        let reaches = |cos: f32| cos > 0.0 || (cos < 0.0 && surface.transmits());
         for light in &scene.point_lights {
             let to_light = light.position - sp.p;
             let d2 = to_light.length_squared();
             let cos = ns.dot(to_light);
-            if !reaches(cos) || d2 == 0.0 {
+            if !surface.reaches(cos) || d2 == 0.0 {
                 continue;
             }
             let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, ns);
@@ -377,33 +393,77 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 sum += f_cos * light.intensity / d2;
             }
         }
-        if !scene.lights.is_empty() {
+        if self.env_share > 0.0 || !scene.lights.is_empty() {
             let vertex = depth - 1;
-            let u_pick = if scene.lights.picks() {
+            let both = self.env_share > 0.0 && self.env_share < 1.0;
+            let mut u_pick = if scene.lights.picks() || both {
                 sampler.get_1d(vertex, Dimension::LightPick)
             } else {
                 sampler.skip_1d();
                 0.0
             };
             let u = sampler.get_2d(vertex, Dimension::LightPoint);
+            if u_pick < self.env_share {
+                sum += self.direct_environment(sp, ns, surface, u, counts);
+                return sum;
+            }
+            let area_share = 1.0 - self.env_share;
+            if both {
+                u_pick = ((u_pick - self.env_share) / area_share).min(ONE_MINUS_EPSILON);
+            }
             if let Some(ls) = scene.lights.sample(&scene.shapes, sp.p, u_pick, u) {
                 let w = ls.point.p - sp.p;
                 let d = w.length();
                 let wi = w / d;
                 let cos = ns.dot(wi);
-                if reaches(cos) && ls.point.n.dot(-wi) > 0.0 && ls.pdf > 0.0 {
+                let pdf_light = ls.pdf * area_share;
+                if surface.reaches(cos) && ls.point.n.dot(-wi) > 0.0 && pdf_light > 0.0 {
                     let ray =
                         spawn_ray_to(sp.p, sp.p_err, sp.n, ls.point.p, ls.point.p_err, ls.point.n);
                     counts.shadow += 1;
                     if !self.backend.occluded(&ray) {
                         let (f_cos, pdf) = surface.eval(wi, cos);
-                        let weight = power_heuristic(ls.pdf, pdf);
-                        sum += f_cos * ls.emission * (weight / ls.pdf);
+                        let weight = power_heuristic(pdf_light, pdf);
+                        sum += f_cos * ls.emission * (weight / pdf_light);
                     }
                 }
             }
         }
         sum
+    }
+}
+
+impl<B: Backend + ?Sized> Integrator<'_, B> {
+    /// Light from the environment along one sampled direction, MIS-weighted
+    /// against `surface`'s pdf.
+    fn direct_environment(
+        &self,
+        sp: &SurfacePoint,
+        ns: Vec3,
+        surface: &impl Reflector,
+        u: Vec2,
+        counts: &mut RayCounts,
+    ) -> Rgb {
+        let Some(env) = &self.scene.environment else {
+            return Rgb::ZERO;
+        };
+        let Some(es) = env.sample(u) else {
+            return Rgb::ZERO;
+        };
+        let cos = ns.dot(es.wi);
+        let pdf_light = es.pdf * self.env_share;
+        if !surface.reaches(cos) || pdf_light <= 0.0 {
+            return Rgb::ZERO;
+        }
+        counts.shadow += 1;
+        if self
+            .backend
+            .occluded(&spawn_ray(sp.p, sp.p_err, sp.n, es.wi))
+        {
+            return Rgb::ZERO;
+        }
+        let (f_cos, pdf) = surface.eval(es.wi, cos);
+        f_cos * es.radiance * (power_heuristic(pdf_light, pdf) / pdf_light)
     }
 }
 
@@ -424,6 +484,12 @@ trait Reflector {
     /// then sees their negative cosine.
     fn transmits(&self) -> bool {
         false
+    }
+
+    /// Whether light arriving with cosine `cos` can leave towards the viewer.
+    #[inline]
+    fn reaches(&self, cos: f32) -> bool {
+        cos > 0.0 || (cos < 0.0 && self.transmits())
     }
 }
 

@@ -1,6 +1,6 @@
 //! Lights: point lights (always sampled by next-event estimation), area
 //! lights (emissive shapes; sampled too when they ask for it with
-//! `nee = true`) and a constant environment (found by escaping rays).
+//! `nee = true`); the environment is `super::environment`.
 
 use super::Shape;
 use crate::geometry::{Geometry, Quad, SurfacePoint};

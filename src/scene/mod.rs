@@ -2,6 +2,7 @@
 //! or a Mitsuba XML file (or directly, in tests) and shared by every backend and the integrator.
 
 pub mod camera;
+pub mod environment;
 pub mod light;
 pub mod load;
 pub mod material;
@@ -10,6 +11,7 @@ pub mod mitsuba;
 pub mod texture;
 
 pub use camera::{Camera, FovAxis};
+pub use environment::{EnvMap, EnvSample, Environment};
 pub use light::{LightSampler, PointLight};
 pub use load::{load, load_bytes, load_bytes_with, load_str, load_with, LoadOptions, SceneError};
 pub use material::{Lobes, Material, Shading};
@@ -72,8 +74,8 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     pub shapes: Vec<Shape>,
     pub point_lights: Vec<PointLight>,
-    /// Constant radiance arriving from infinitely far away.
-    pub environment: Option<Rgb>,
+    /// Radiance arriving from infinitely far away.
+    pub environment: Option<Environment>,
     pub lights: LightSampler,
     pub render: RenderSettings,
     /// The files the scene was read from: the scene file, then every mesh
@@ -100,7 +102,7 @@ impl Scene {
         textures: Vec<Texture>,
         shapes: Vec<Shape>,
         point_lights: Vec<PointLight>,
-        environment: Option<Rgb>,
+        environment: Option<Environment>,
         render: RenderSettings,
     ) -> Self {
         let lights = light_sampler(&shapes, &materials);

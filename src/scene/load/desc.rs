@@ -170,5 +170,10 @@ pub(super) struct LightDesc {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(super) struct EnvironmentDesc {
-    pub(super) radiance: Color,
+    pub(super) radiance: Option<Color>,
+    /// A latitude-longitude map (EXR, HDR, PFM... any image luz reads).
+    pub(super) map: Option<String>,
+    pub(super) scale: Option<f32>,
+    /// Degrees about x, then y, then z, as a mesh's `rotate`.
+    pub(super) rotate: Option<[f32; 3]>,
 }

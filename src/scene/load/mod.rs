@@ -10,7 +10,7 @@ use super::{
 use crate::echo::echo;
 use crate::geometry::{within_bounds, Cuboid, Geometry, Mesh, Plane, Quad, Sphere, MAX_COORDINATE};
 use crate::location::{line_column, read_regular_file};
-use crate::math::{Mat4, Quat, Rgb, Vec2, Vec3};
+use crate::math::{Mat3, Mat4, Quat, Rgb, Vec2, Vec3};
 use crate::render::film::check_resolution;
 use crate::sampling::SamplerKind;
 use std::cell::RefCell;
@@ -20,6 +20,7 @@ use std::path::{Path, PathBuf};
 
 mod camera;
 mod desc;
+mod environment;
 mod materials;
 mod messages;
 mod models;
@@ -440,13 +441,7 @@ impl Ctx<'_> {
         }
 
         let environment = match &desc.environment {
-            Some(e) => Some(self.color(
-                &e.span(),
-                "radiance",
-                Some(e.get_ref().radiance),
-                Rgb::ZERO,
-                f32::INFINITY,
-            )?),
+            Some(e) => Some(self.environment(e)?),
             None => None,
         };
 

@@ -259,3 +259,36 @@ fn model_fields_are_checked_where_they_are_written() {
         assert_eq!(e.location.map(|l| l.0), Some(line), "{body}: {e}");
     }
 }
+
+#[test]
+fn environment_maps_and_their_errors() {
+    let dir = std::env::temp_dir().join(format!("luz-envmap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut ppm = b"P6\n4 2\n255\n".to_vec();
+    ppm.extend((0..8).flat_map(|i| [i * 30, 255 - i * 30, 128]));
+    std::fs::write(dir.join("sky.ppm"), ppm).unwrap();
+    let scene = dir.join("s.toml");
+    let text =
+        format!("{MINIMAL}[environment]\nmap = \"sky.ppm\"\nscale = 2\nrotate = [0, 90, 0]\n");
+    let s = load_str(&text, &scene).unwrap();
+    let Some(crate::scene::Environment::Map(m)) = &s.environment else {
+        panic!("a map")
+    };
+    assert_eq!((m.width, m.height, m.scale), (4, 2, 2.0));
+    assert!(
+        (m.to_world * Vec3::X - -Vec3::Z).length() < 1e-6,
+        "{}",
+        m.to_world
+    );
+    for (body, field) in [
+        ("map = \"missing.exr\"\n", "map"),
+        ("map = \"sky.ppm\"\nradiance = 1\n", "radiance"),
+        ("radiance = 1\nscale = 2\n", "scale"),
+        ("map = \"sky.ppm\"\nscale = -1\n", "scale"),
+    ] {
+        let e = load_str(&format!("{MINIMAL}[environment]\n{body}"), &scene).expect_err(body);
+        assert!(e.message.contains(field), "{body}: {e}");
+        assert!(e.location.is_some(), "{body}: {e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

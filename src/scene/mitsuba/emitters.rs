@@ -1,6 +1,6 @@
 //! `<emitter>`: `area` (on a shape: its material's emission, sampled by
 //! next-event estimation as Mitsuba samples it), `point`, `constant`, and
-//! `envmap` (substituted by its mean radiance).
+//! `envmap` (a latitude-longitude map, importance-sampled).
 
 use super::props::{Props, Value};
 use super::spectrum::Use;
@@ -9,7 +9,7 @@ use super::Builder;
 use crate::echo::echo;
 use crate::geometry::within_bounds;
 use crate::math::Rgb;
-use crate::scene::{Material, PointLight, SceneError, Shape};
+use crate::scene::{EnvMap, Environment, Material, PointLight, SceneError, Shape};
 use glam::{DMat4, DVec3};
 
 impl<'e> Builder<'e, '_> {
@@ -82,11 +82,11 @@ impl<'e> Builder<'e, '_> {
             }
             "constant" => {
                 let radiance = self.radiance(&props, "radiance")?;
-                self.add_environment(e, radiance)?;
+                self.add_environment(e, Environment::Constant(radiance))?;
             }
             "envmap" => {
-                let radiance = self.envmap_mean(&props)?;
-                self.add_environment(e, radiance)?;
+                let map = self.envmap(&props)?;
+                self.add_environment(e, Environment::Map(map))?;
             }
             "area" => {
                 return Err(e.loc.error("an `area` emitter must be nested in a <shape>"));
@@ -102,45 +102,57 @@ impl<'e> Builder<'e, '_> {
         props.finish(&mut self.problems)
     }
 
-    fn add_environment(&mut self, e: &Elem, radiance: Rgb) -> Result<(), SceneError> {
-        if let Some(before) = self.environment {
-            self.problems.warn(
-                &e.loc,
-                "a second environment emitter; luz has one environment: substituted their sum",
-            )?;
-            self.environment = Some(before + radiance);
-        } else {
-            self.environment = Some(radiance);
+    fn add_environment(&mut self, e: &Elem, env: Environment) -> Result<(), SceneError> {
+        match (self.environment.take(), env) {
+            (None, env) => self.environment = Some(env),
+            (Some(Environment::Constant(a)), Environment::Constant(b)) => {
+                self.environment = Some(Environment::Constant(a + b));
+            }
+            (Some(first), _) => {
+                self.environment = Some(first);
+                self.problems.warn(
+                    &e.loc,
+                    "a second environment emitter; luz has one environment (two constants add up): kept the first, left this one out",
+                )?;
+            }
         }
         Ok(())
     }
 
-    /// The solid-angle mean of an equirectangular map times `scale`.
-    fn envmap_mean(&mut self, props: &Props) -> Result<Rgb, SceneError> {
+    /// `<emitter type="envmap">`: `filename`, `scale` and `to_world` (its
+    /// rotation; a scale or shear would only distort directions).
+    fn envmap(&mut self, props: &Props) -> Result<EnvMap, SceneError> {
         let e = props.elem;
-        props.accept("to_world");
         let scale = props.float("scale")?.unwrap_or(1.0) as f32;
+        if !(scale >= 0.0 && scale.is_finite()) {
+            return Err(e.loc.error(format!(
+                "`scale` must be finite and not negative, got {scale}"
+            )));
+        }
+        let m = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let linear = glam::DMat3::from_mat4(m);
+        let rotation = glam::Mat3::from_cols(
+            linear.x_axis.normalize().as_vec3(),
+            linear.y_axis.normalize().as_vec3(),
+            linear.z_axis.normalize().as_vec3(),
+        );
+        if !rotation.is_finite() || (rotation.determinant() - 1.0).abs() > 1e-3 {
+            return Err(e.loc.error("`to_world` of an envmap must be a rotation"));
+        }
         let name = props
             .string("filename")?
             .ok_or_else(|| e.loc.error("<emitter type=\"envmap\"> needs `filename`"))?;
         let path = self.file(e, name)?;
         let img = crate::image::io::read(&path)
             .map_err(|err| e.loc.error(format!("`filename` {}: {err}", echo(name))))?;
-        let mut sum = glam::DVec3::ZERO;
-        let mut weight = 0.0;
-        for y in 0..img.height {
-            let theta = std::f64::consts::PI * (y as f64 + 0.5) / img.height as f64;
-            let w = theta.sin();
-            for x in 0..img.width {
-                sum += img.pixels[(y * img.width + x) as usize].as_dvec3() * w;
-                weight += w;
-            }
+        if img.width < 2 || img.height < 2 || img.pixels.iter().any(|p| !p.is_finite()) {
+            return Err(e.loc.error(format!(
+                "`filename` {}: needs at least 2×2 finite texels",
+                echo(name)
+            )));
         }
-        let mean = (sum / weight.max(f64::MIN_POSITIVE)).as_vec3() * scale;
-        self.problems.warn(
-            &e.loc,
-            format!("<emitter type=\"envmap\">: luz's environment is constant; substituted the map's mean radiance {mean}"),
-        )?;
-        Ok(mean)
+        // Mitsuba clamps negative texels of an emitter to 0.
+        let texels = img.pixels.iter().map(|p| p.max(Rgb::ZERO)).collect();
+        Ok(EnvMap::new(img.width, img.height, texels, scale, rotation))
     }
 }

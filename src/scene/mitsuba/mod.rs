@@ -20,7 +20,6 @@ mod xml;
 use super::{LoadOptions, Material, PointLight, RenderSettings, Scene, SceneError, Shape};
 use super::{Texture, UvTransform};
 use crate::echo::echo;
-use crate::math::Rgb;
 use props::Ids;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -137,7 +136,7 @@ struct Builder<'e, 'i> {
     bsdf_depth: usize,
     shapes: Vec<Shape>,
     point_lights: Vec<PointLight>,
-    environment: Option<Rgb>,
+    environment: Option<crate::scene::Environment>,
 }
 
 impl<'e, 'i> Builder<'e, 'i> {
