@@ -177,31 +177,31 @@ mod tests {
         Vec3::new(s * phi.cos(), s * phi.sin(), cos_theta)
     }
 
+    /// Midpoint cells of the upper hemisphere in (θ, φ), θ = t²·π/2 so that
+    /// they crowd at the normal where narrow lobes live: (centre, solid
+    /// angle).
+    fn hemisphere_cells(n_theta: usize, n_phi: usize) -> impl Iterator<Item = (Vec3, f64)> {
+        use std::f64::consts::{FRAC_PI_2, TAU};
+        (0..n_theta).flat_map(move |i| {
+            let (t0, t1) = (i as f64 / n_theta as f64, (i + 1) as f64 / n_theta as f64);
+            let (th0, th1) = (t0 * t0 * FRAC_PI_2, t1 * t1 * FRAC_PI_2);
+            let th = 0.5 * (th0 + th1);
+            let d_omega = (th1 - th0) * th.sin() * TAU / n_phi as f64;
+            (0..n_phi).map(move |j| {
+                let phi = (j as f32 + 0.5) * std::f32::consts::TAU / n_phi as f32;
+                (direction(th.cos() as f32, phi), d_omega)
+            })
+        })
+    }
+
     /// ∫ D(m) cos θm dm = 1: the projected microfacet area is the
-    /// surface's. Midpoint rule in (cos θ, φ) with dense cells near the
-    /// normal, where narrow lobes live.
+    /// surface's.
     #[test]
     fn projected_microfacet_area_is_one() {
         for md in models() {
-            let (n_theta, n_phi) = (4000, 8);
-            let mut sum = 0.0f64;
-            for i in 0..n_theta {
-                // θ = (t²)·π/2 concentrates cells at the normal.
-                let (t0, t1) = (i as f64 / n_theta as f64, (i + 1) as f64 / n_theta as f64);
-                let (th0, th1) = (
-                    t0 * t0 * std::f64::consts::FRAC_PI_2,
-                    t1 * t1 * std::f64::consts::FRAC_PI_2,
-                );
-                let th = 0.5 * (th0 + th1);
-                let d_omega = (th1 - th0) * th.sin() * std::f64::consts::TAU / n_phi as f64;
-                for j in 0..n_phi {
-                    let m = direction(
-                        th.cos() as f32,
-                        (j as f32 + 0.5) * std::f32::consts::TAU / n_phi as f32,
-                    );
-                    sum += md.d(m) as f64 * th.cos() * d_omega;
-                }
-            }
+            let sum: f64 = hemisphere_cells(4000, 8)
+                .map(|(m, d_omega)| md.d(m) as f64 * m.z as f64 * d_omega)
+                .sum();
             assert!((sum - 1.0).abs() < 5e-3, "{md:?}: ∫ D cos = {sum}");
         }
     }
@@ -225,25 +225,11 @@ mod tests {
                     mean_x += (m.x.signum() * m.x.abs().min(1.0)) as f64 / n as f64;
                 }
                 let (mut want_cos, mut want_x, mut total) = (0.0f64, 0.0f64, 0.0f64);
-                let (n_theta, n_phi) = (3000, 64);
-                for i in 0..n_theta {
-                    let (t0, t1) = (i as f64 / n_theta as f64, (i + 1) as f64 / n_theta as f64);
-                    let (th0, th1) = (
-                        t0 * t0 * std::f64::consts::FRAC_PI_2,
-                        t1 * t1 * std::f64::consts::FRAC_PI_2,
-                    );
-                    let th = 0.5 * (th0 + th1);
-                    let d_omega = (th1 - th0) * th.sin() * std::f64::consts::TAU / n_phi as f64;
-                    for j in 0..n_phi {
-                        let m = direction(
-                            th.cos() as f32,
-                            (j as f32 + 0.5) * std::f32::consts::TAU / n_phi as f32,
-                        );
-                        let p = md.pdf(wi, m) as f64 * d_omega;
-                        total += p;
-                        want_cos += p * m.z as f64;
-                        want_x += p * m.x as f64;
-                    }
+                for (m, d_omega) in hemisphere_cells(3000, 64) {
+                    let p = md.pdf(wi, m) as f64 * d_omega;
+                    total += p;
+                    want_cos += p * m.z as f64;
+                    want_x += p * m.x as f64;
                 }
                 assert!(
                     (total - 1.0).abs() < 0.01,

@@ -102,16 +102,7 @@ impl RoughPlastic {
         } else {
             cosine_hemisphere(u)
         };
-        let pdf = self.pdf(wo, wi);
-        if pdf <= 0.0 {
-            return None;
-        }
-        Some(BsdfSample {
-            wi,
-            weight: self.eval(wo, wi, diffuse) / pdf,
-            pdf,
-            delta: false,
-        })
+        by_density(wi, self.eval(wo, wi, diffuse), self.pdf(wo, wi))
     }
 
     /// f·cos θi.
@@ -145,6 +136,17 @@ impl RoughPlastic {
         let p = self.specular_probability(wo.z);
         p * md.d(h) * md.smith_g1(wo, h) / (4.0 * wo.z) + (1.0 - p) * cosine_hemisphere_pdf(wi.z)
     }
+}
+
+/// A sample of a lobe mixture: weighted by the whole mixture's `f_cos` and
+/// `pdf` at `wi`, so that MIS sees one density.
+fn by_density(wi: Vec3, f_cos: Rgb, pdf: f32) -> Option<BsdfSample> {
+    (pdf > 0.0).then(|| BsdfSample {
+        wi,
+        weight: f_cos / pdf,
+        pdf,
+        delta: false,
+    })
 }
 
 #[derive(Clone, Copy, PartialEq)]
@@ -238,13 +240,7 @@ impl Plastic {
             });
         }
         let wi = cosine_hemisphere(u);
-        let pdf = self.pdf(wo, wi);
-        (pdf > 0.0).then(|| BsdfSample {
-            wi,
-            weight: self.eval(wo, wi, diffuse) / pdf,
-            pdf,
-            delta: false,
-        })
+        by_density(wi, self.eval(wo, wi, diffuse), self.pdf(wo, wi))
     }
 
     /// f·cos θi of the diffuse lobe (the mirror is a delta).
