@@ -53,6 +53,7 @@ fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
             positions,
             indices,
             uvs: None,
+            normals: None,
         }));
     }
     shapes.push(Geometry::Plane(Plane::new(

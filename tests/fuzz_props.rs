@@ -242,6 +242,7 @@ fn meshes() -> impl Strategy<Value = Mesh> {
                     positions: ps.iter().map(|&(x, y, z)| Vec3::new(x, y, z)).collect(),
                     indices: tris.into_iter().map(|(a, b, c)| [a, b, c]).collect(),
                     uvs: None,
+                    normals: None,
                 };
                 let keep: Vec<_> = m
                     .indices

@@ -33,6 +33,7 @@ pub fn subdivide(mesh: &Mesh) -> Mesh {
         positions,
         indices,
         uvs: None,
+        normals: None,
     }
 }
 

@@ -283,6 +283,7 @@ mod tests {
                 ],
                 indices: vec![[0, 1, 2]],
                 uvs: None,
+                normals: None,
             }),
         ]))
     }

@@ -73,15 +73,19 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         match &shape.geometry {
             Geometry::Mesh(m) => {
                 h.text(format_args!(
-                    "mesh {} {} {}",
+                    "mesh {} {} {} {}",
                     m.positions.len(),
                     m.indices.len(),
-                    m.uvs.is_some()
+                    m.uvs.is_some(),
+                    m.normals.is_some()
                 ));
                 h.floats(bytemuck::cast_slice(&m.positions));
                 h.words(bytemuck::cast_slice(&m.indices));
                 if let Some(uvs) = &m.uvs {
                     h.floats(bytemuck::cast_slice(uvs));
+                }
+                if let Some(normals) = &m.normals {
+                    h.floats(bytemuck::cast_slice(normals));
                 }
             }
             other => h.text(format_args!("{other:?}")),
@@ -135,6 +139,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
             indices: vec![[0, 1, 2]],
             uvs: Some(vec![Vec2::ZERO, Vec2::X, Vec2::Y]),
+            normals: None,
         };
         let shapes = vec![
             Shape::new(Geometry::Mesh(mesh), 0),
@@ -189,11 +194,14 @@ mod tests {
         let base = scene_hash(&scene());
         assert_eq!(base, scene_hash(&scene()), "the hash must be stable");
         type Change = (&'static str, fn(&mut Scene));
-        let changes: [Change; 11] = [
+        let changes: [Change; 12] = [
             ("a vertex", |s| mesh(s).positions[1].x = 1.5),
             ("an index", |s| mesh(s).indices[0] = [0, 2, 1]),
             ("a uv", |s| mesh(s).uvs.as_mut().unwrap()[2].y = 0.5),
             ("dropped uvs", |s| mesh(s).uvs = None),
+            ("vertex normals", |s| {
+                mesh(s).normals = Some(vec![Vec3::Z; 3])
+            }),
             ("a texel", |s| match &mut s.textures[0] {
                 Texture::Image { texels, .. } => texels[0].z = 0.25,
                 _ => unreachable!(),

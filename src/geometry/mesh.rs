@@ -26,6 +26,8 @@ pub struct Mesh {
     pub indices: Vec<[u32; 3]>,
     /// Per-vertex texture coordinates, same length as `positions` when present.
     pub uvs: Option<Vec<Vec2>>,
+    /// Per-vertex shading normals, same length as `positions` when present.
+    pub normals: Option<Vec<Vec3>>,
 }
 
 impl Mesh {

@@ -194,6 +194,7 @@ mod tests {
                     positions: vec![v(-1.0, 0.0, -1.0), v(1.0, 0.2, -0.5), v(0.0, -0.1, 1.0)],
                     indices: vec![[0, 1, 2]],
                     uvs: None,
+                    normals: None,
                 }),
                 false,
             ),
@@ -284,6 +285,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, 2.0 * Vec3::X, Vec3::ZERO],
             indices: vec![[0, 1, 2], [0, 0, 1], [0, 3, 1]],
             uvs: None,
+            normals: None,
         };
         let mut rng = Rng::new(3, 3);
         for _ in 0..10_000 {

@@ -107,6 +107,7 @@ fn grazing_rays_down_to_1e_minus6_rad() {
             positions: vec![origin, origin + 2.0 * scale * s, origin + 2.0 * scale * t],
             indices: vec![[0, 1, 2]],
             uvs: None,
+            normals: None,
         };
         for (shape_name, g) in [
             ("quad", Geometry::Quad(quad)),
@@ -214,6 +215,7 @@ fn octasphere(levels: u32, center: Vec3, radius: f32) -> Mesh {
         positions: positions.iter().map(|&p| center + radius * p).collect(),
         indices,
         uvs: None,
+        normals: None,
     }
 }
 

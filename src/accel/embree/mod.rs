@@ -266,6 +266,7 @@ mod tests {
                 positions,
                 indices,
                 uvs: None,
+                normals: None,
             }),
         ])
     }
@@ -327,6 +328,7 @@ mod tests {
             positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
             indices: vec![[0, 1, 7]],
             uvs: None,
+            normals: None,
         })]);
         match build(scene, &[false]) {
             Err(AccelError::Embree(

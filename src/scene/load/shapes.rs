@@ -178,6 +178,7 @@ impl Ctx<'_> {
                     positions,
                     indices: vec![[0, 1, 2]],
                     uvs,
+                    normals: None,
                 })
             }
             "mesh" => {

@@ -493,6 +493,7 @@ fn build(parts: Vec<Part>) -> Option<Noted> {
         positions,
         indices,
         uvs: with_uv.then_some(uvs),
+        normals: None,
     };
     let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
     if mesh.indices.is_empty() {

@@ -174,6 +174,7 @@ fn rectangle(e: &Elem, m: &DMat4) -> Result<Geometry, SceneError> {
 fn cube(m: &DMat4) -> Mesh {
     let mut mesh = Mesh {
         uvs: Some(Vec::new()),
+        normals: None,
         ..Mesh::default()
     };
     for axis in 0..3 {
@@ -222,6 +223,7 @@ fn disk(m: &DMat4) -> Mesh {
         positions,
         indices,
         uvs: Some(uvs),
+        normals: None,
     }
 }
 

@@ -61,6 +61,7 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
         positions: out.positions,
         indices: out.indices,
         uvs: out.uvs,
+        normals: None,
     };
     Ok((mesh, notes))
 }
