@@ -130,6 +130,55 @@ intensity = {intensity}
 }
 
 #[test]
+fn spot_light_over_diffuse_plane_follows_its_cone() {
+    // A spot 2 above the origin aims straight down: full intensity within
+    // 20° of its axis, linear in the angle to zero at 40°. The camera looks
+    // at the point of the plane the spot sees at angle `degrees`.
+    let (kd, intensity) = (0.7f32, 5.0f32);
+    for (degrees, falloff) in [(10.0f32, 1.0f32), (25.0, 0.75), (35.0, 0.25), (45.0, 0.0)] {
+        let x = 2.0 * degrees.to_radians().tan();
+        let text = format!(
+            r#"
+[camera]
+eye = [{x}, 3, 0.5]
+target = [{x}, 0, 0]
+fov = 0.001
+resolution = [2, 2]
+[render]
+spp = 4
+max_depth = 2
+russian_roulette = false
+[materials.m]
+kd = {kd}
+[[shapes]]
+type = "plane"
+point = [0, 0, 0]
+normal = [0, 1, 0]
+material = "m"
+[[lights]]
+type = "spot"
+position = [0, 2, 0]
+target = [0, 0, 0]
+intensity = {intensity}
+cutoff_angle = 40
+beam_width = 20
+"#
+        );
+        for backend in backends() {
+            let film = render_scene(&scene(&text), backend);
+            let (mean, _) = mean_and_se(&film, 1);
+            let d2 = x * x + 4.0;
+            let cos = 2.0 / d2.sqrt();
+            let expected = kd / PI * intensity * falloff * cos / d2;
+            assert!(
+                ((mean as f32) - expected).abs() <= 1e-4 * expected,
+                "{backend:?} at {degrees}°: {mean} vs {expected}"
+            );
+        }
+    }
+}
+
+#[test]
 fn visible_quad_light_shows_its_radiance_exactly() {
     let text = r#"
 [camera]

@@ -523,3 +523,33 @@ fn rough_and_thin_dielectrics_become_luz_models() {
     assert_eq!(thin.eta, 1.5);
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
 }
+
+#[test]
+fn a_spot_light_sits_at_its_to_world_origin_and_aims_along_z() {
+    let body = r#"<emitter type="spot">
+            <transform name="to_world"><lookat origin="1, 4, 0" target="1, 0, 0" up="0, 0, 1"/></transform>
+            <rgb name="intensity" value="2, 3, 4"/>
+            <float name="cutoff_angle" value="30"/>
+        </emitter>"#;
+    let s = ok("spot", body);
+    let light = &s.point_lights[0];
+    assert!(close(light.position, Vec3::new(1.0, 4.0, 0.0)), "{light:?}");
+    assert!(
+        close(light.intensity, Vec3::new(2.0, 3.0, 4.0)),
+        "{light:?}"
+    );
+    // Mitsuba's default beam is three quarters of the cutoff: 22.5°.
+    let off = |deg: f32| Vec3::new(deg.to_radians().sin(), -deg.to_radians().cos(), 0.0);
+    assert_eq!(light.falloff(off(22.0)), 1.0);
+    assert!((light.falloff(off(26.25)) - 0.5).abs() < 1e-5);
+    assert_eq!(light.falloff(off(30.5)), 0.0);
+    assert_eq!(light.falloff(-off(0.0)), 0.0, "it shines one way");
+    let message = ok_err(
+        "spot-beam",
+        r#"<emitter type="spot"><float name="cutoff_angle" value="10"/><float name="beam_width" value="12"/></emitter>"#,
+    );
+    assert!(
+        message.contains("s.xml:") && message.contains("`beam_width`"),
+        "{message}"
+    );
+}

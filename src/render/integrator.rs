@@ -385,12 +385,16 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             if !surface.reaches(cos) || d2 == 0.0 {
                 continue;
             }
+            let d = d2.sqrt();
+            let falloff = light.falloff(-to_light / d);
+            if falloff == 0.0 {
+                continue;
+            }
             let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, ns);
             counts.shadow += 1;
             if !self.backend.occluded(&ray) {
-                let d = d2.sqrt();
                 let (f_cos, _) = surface.eval(to_light / d, cos / d);
-                sum += f_cos * light.intensity / d2;
+                sum += f_cos * light.intensity * (falloff / d2);
             }
         }
         if self.env_share > 0.0 || !scene.lights.is_empty() {

@@ -6,12 +6,65 @@ use super::Shape;
 use crate::geometry::{Geometry, Quad, SurfacePoint};
 use crate::math::{luminance, Rgb, Vec2, Vec3};
 use crate::sampling::Discrete;
+use std::f32::consts::PI;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct PointLight {
     pub position: Vec3,
-    /// Radiant intensity in W/sr per channel.
+    /// Radiant intensity in W/sr per channel (on a spot light's axis).
     pub intensity: Rgb,
+    /// A spot light's cone; `None` emits the same intensity everywhere.
+    pub spot: Option<SpotCone>,
+}
+
+impl PointLight {
+    /// The fraction of `intensity` sent along the unit direction `d` away
+    /// from the light.
+    #[inline]
+    pub fn falloff(&self, d: Vec3) -> f32 {
+        self.spot.as_ref().map_or(1.0, |cone| cone.falloff(d))
+    }
+}
+
+/// Mitsuba's `spot` profile: full intensity within `beam_width` of the
+/// axis, falling linearly in angle to zero at `cutoff_angle`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpotCone {
+    /// Unit direction of the beam's centre.
+    axis: Vec3,
+    cutoff: f32,
+    cos_cutoff: f32,
+    cos_beam: f32,
+    inv_transition: f32,
+}
+
+impl SpotCone {
+    /// A cone around `axis` (any length but zero); angles in radians with
+    /// `0 <= beam_width <= cutoff <= π`, as the loaders check.
+    pub fn new(axis: Vec3, cutoff: f32, beam_width: f32) -> Self {
+        debug_assert!(0.0 <= beam_width && beam_width <= cutoff && cutoff <= PI);
+        Self {
+            axis: axis.normalize(),
+            cutoff,
+            cos_cutoff: cutoff.cos(),
+            cos_beam: beam_width.cos(),
+            // A hard-edged cone (beam = cutoff) never reads it: any
+            // direction inside the cutoff is inside the beam.
+            inv_transition: 1.0 / (cutoff - beam_width).max(f32::MIN_POSITIVE),
+        }
+    }
+
+    #[inline]
+    fn falloff(&self, d: Vec3) -> f32 {
+        let cos = self.axis.dot(d);
+        if cos <= self.cos_cutoff {
+            0.0
+        } else if cos >= self.cos_beam {
+            1.0
+        } else {
+            ((self.cutoff - cos.min(1.0).acos()) * self.inv_transition).clamp(0.0, 1.0)
+        }
+    }
 }
 
 /// The emissive shapes that next-event estimation samples, chosen in
@@ -232,6 +285,49 @@ mod tests {
             center: Vec3::new(2.0, 1.0, 0.0),
             radius: 0.5,
         }))
+    }
+
+    /// Mitsuba's spot profile: 1 inside the beam, 0 past the cutoff, and
+    /// linear in the angle between them.
+    #[test]
+    fn spot_falloff_is_flat_then_linear_in_angle_then_zero() {
+        let (cutoff, beam) = (40f32.to_radians(), 20f32.to_radians());
+        let light = PointLight {
+            position: Vec3::ZERO,
+            intensity: Rgb::ONE,
+            spot: Some(SpotCone::new(Vec3::new(0.0, -2.0, 0.0), cutoff, beam)),
+        };
+        let at = |degrees: f32| {
+            let a = degrees.to_radians();
+            light.falloff(Vec3::new(a.sin(), -a.cos(), 0.0))
+        };
+        for (degrees, want) in [
+            (0.0, 1.0),
+            (19.9, 1.0),
+            (25.0, 0.75),
+            (30.0, 0.5),
+            (35.0, 0.25),
+        ] {
+            assert!(
+                (at(degrees) - want).abs() < 1e-5,
+                "{degrees}°: {}",
+                at(degrees)
+            );
+        }
+        for degrees in [40.01, 90.0, 180.0] {
+            assert_eq!(at(degrees), 0.0, "{degrees}°");
+        }
+        // A hard-edged cone: no transition, no division by zero.
+        let hard = SpotCone::new(Vec3::Z, cutoff, cutoff);
+        assert_eq!(hard.falloff(Vec3::Z), 1.0);
+        assert_eq!(hard.falloff(Vec3::new(0.0, 1.0, 1.0).normalize()), 0.0);
+        assert_eq!(hard.falloff(Vec3::new(0.0, 0.8, 1.0).normalize()), 1.0);
+        // An unconed point light sends its intensity everywhere.
+        let point = PointLight {
+            spot: None,
+            ..light
+        };
+        assert_eq!(point.falloff(Vec3::X), 1.0);
     }
 
     /// Every sample's pdf is the one `pdf` reports for the point, whichever

@@ -12,7 +12,7 @@ pub mod texture;
 
 pub use camera::{Camera, FovAxis};
 pub use environment::{EnvMap, EnvSample, Environment};
-pub use light::{LightSampler, PointLight};
+pub use light::{LightSampler, PointLight, SpotCone};
 pub use load::{load, load_bytes, load_bytes_with, load_str, load_with, LoadOptions, SceneError};
 pub use material::{Lobes, Material, Shading};
 pub use texture::{Texture, UvTransform};

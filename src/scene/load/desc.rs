@@ -165,6 +165,10 @@ pub(super) struct LightDesc {
     pub(super) kind: String,
     pub(super) position: [f32; 3],
     pub(super) intensity: Color,
+    /// A spot light's aim, and its cone's angles in degrees.
+    pub(super) target: Option<[f32; 3]>,
+    pub(super) cutoff_angle: Option<f32>,
+    pub(super) beam_width: Option<f32>,
 }
 
 #[derive(Deserialize)]

@@ -21,6 +21,7 @@ use std::path::{Path, PathBuf};
 mod camera;
 mod desc;
 mod environment;
+mod lights;
 mod materials;
 mod messages;
 mod models;
@@ -416,28 +417,7 @@ impl Ctx<'_> {
 
         let mut point_lights = Vec::new();
         for l in &desc.lights {
-            let span = l.span();
-            let ld = l.get_ref();
-            if ld.kind != "point" {
-                return Err(self.field_error(
-                    &span,
-                    "type",
-                    format!(
-                        "unknown light type {}: `point` is the only light of [[lights]]; area lights are shapes whose material has `emission`",
-                        echo(&ld.kind)
-                    ),
-                ));
-            }
-            point_lights.push(PointLight {
-                position: self.point3(&span, "position", ld.position)?,
-                intensity: self.color(
-                    &span,
-                    "intensity",
-                    Some(ld.intensity),
-                    Rgb::ZERO,
-                    f32::INFINITY,
-                )?,
-            });
+            point_lights.push(self.point_light(l)?);
         }
 
         let environment = match &desc.environment {

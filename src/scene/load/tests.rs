@@ -292,3 +292,53 @@ fn environment_maps_and_their_errors() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn spot_lights_and_their_errors() {
+    let head = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\n[[lights]]\nposition = [0, 2, 0]\nintensity = 3\n";
+    let scene = load_str(
+        &format!("{head}type = \"spot\"\ntarget = [0, 0, 0]\ncutoff_angle = 30\n"),
+        Path::new("s.toml"),
+    )
+    .unwrap();
+    let light = &scene.point_lights[0];
+    // Straight down is the axis, 25° off it is past the 22.5° beam, 31° off
+    // is past the cutoff.
+    let off = |deg: f32| Vec3::new(deg.to_radians().sin(), -deg.to_radians().cos(), 0.0);
+    assert_eq!(light.falloff(off(0.0)), 1.0);
+    assert!((light.falloff(off(25.0)) - 5.0 / 7.5).abs() < 1e-5);
+    assert_eq!(light.falloff(off(31.0)), 0.0);
+    for (tail, field, line, says) in [
+        ("type = \"spot\"\n", "type", 7, "needs a `target`"),
+        (
+            "type = \"spot\"\ntarget = [0, 2, 0]\n",
+            "target",
+            8,
+            "must differ from `position`",
+        ),
+        (
+            "type = \"spot\"\ntarget = [0, 0, 0]\ncutoff_angle = 0\n",
+            "cutoff_angle",
+            9,
+            "(0, 180]",
+        ),
+        (
+            "type = \"spot\"\ntarget = [0, 0, 0]\ncutoff_angle = 30\nbeam_width = 31\n",
+            "beam_width",
+            10,
+            "[0, cutoff_angle = 30]",
+        ),
+        (
+            "type = \"point\"\ncutoff_angle = 30\n",
+            "cutoff_angle",
+            8,
+            "only a `spot` light",
+        ),
+        ("type = \"sun\"\n", "type", 7, "`point` or `spot`"),
+    ] {
+        let message = err(&format!("{head}{tail}")).to_string();
+        assert!(message.contains(&format!("`{field}`")), "{message}");
+        assert!(message.contains(says), "{message}");
+        assert!(message.contains(&format!("test.toml:{line}:")), "{message}");
+    }
+}

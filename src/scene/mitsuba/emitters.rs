@@ -1,6 +1,6 @@
 //! `<emitter>`: `area` (on a shape: its material's emission, sampled by
-//! next-event estimation as Mitsuba samples it), `point`, `constant`, and
-//! `envmap` (a latitude-longitude map, importance-sampled).
+//! next-event estimation as Mitsuba samples it), `point`, `spot`,
+//! `constant`, and `envmap` (a latitude-longitude map, importance-sampled).
 
 use super::props::{Props, Value};
 use super::spectrum::Use;
@@ -9,7 +9,7 @@ use super::Builder;
 use crate::echo::echo;
 use crate::geometry::within_bounds;
 use crate::math::Rgb;
-use crate::scene::{EnvMap, Environment, Material, PointLight, SceneError, Shape};
+use crate::scene::{EnvMap, Environment, Material, PointLight, SceneError, Shape, SpotCone};
 use glam::{DMat4, DVec3};
 
 impl<'e> Builder<'e, '_> {
@@ -67,18 +67,9 @@ impl<'e> Builder<'e, '_> {
     pub(super) fn emitter(&mut self, e: &'e Elem) -> Result<(), SceneError> {
         let props = Props::new(e, self.ids);
         match e.kind() {
-            "point" => {
-                let m = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
-                let at = props.point("position")?.unwrap_or(DVec3::ZERO);
-                let position = m.transform_point3(at).as_vec3();
-                if !within_bounds(position) {
-                    return Err(e.loc.error("`position` lies beyond ±1e12"));
-                }
-                let intensity = self.radiance(&props, "intensity")?;
-                self.point_lights.push(PointLight {
-                    position,
-                    intensity,
-                });
+            "point" | "spot" => {
+                let light = self.point_light(e, &props)?;
+                self.point_lights.push(light);
             }
             "constant" => {
                 let radiance = self.radiance(&props, "radiance")?;
@@ -100,6 +91,32 @@ impl<'e> Builder<'e, '_> {
             }
         }
         props.finish(&mut self.problems)
+    }
+
+    /// `point` (at `position` under `to_world`) and `spot` (at the origin
+    /// of `to_world`, aimed along its +z, with Mitsuba's `cutoff_angle`,
+    /// 20° by default, and `beam_width`, three quarters of it).
+    fn point_light(&mut self, e: &Elem, props: &Props) -> Result<PointLight, SceneError> {
+        let m = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
+        let spot = e.kind() == "spot";
+        let at = match spot {
+            false => props.point("position")?.unwrap_or(DVec3::ZERO),
+            true => DVec3::ZERO,
+        };
+        let position = m.transform_point3(at).as_vec3();
+        if !within_bounds(position) {
+            return Err(e.loc.error("`position` lies beyond ±1e12"));
+        }
+        let intensity = self.radiance(props, "intensity")?;
+        let spot = match spot {
+            false => None,
+            true => Some(spot_cone(e, props, m)?),
+        };
+        Ok(PointLight {
+            position,
+            intensity,
+            spot,
+        })
     }
 
     fn add_environment(&mut self, e: &Elem, env: Environment) -> Result<(), SceneError> {
@@ -155,4 +172,29 @@ impl<'e> Builder<'e, '_> {
         let texels = img.pixels.iter().map(|p| p.max(Rgb::ZERO)).collect();
         Ok(EnvMap::new(img.width, img.height, texels, scale, rotation))
     }
+}
+
+/// A `spot` emitter's cone, its angles checked as Mitsuba asserts them.
+fn spot_cone(e: &Elem, props: &Props, to_world: DMat4) -> Result<SpotCone, SceneError> {
+    let axis = to_world.transform_vector3(DVec3::Z).as_vec3();
+    if !axis.is_finite() || axis.length_squared() == 0.0 {
+        return Err(e.loc.error("`to_world` collapses the spot light's axis"));
+    }
+    let cutoff = props.float("cutoff_angle")?.unwrap_or(20.0);
+    if !(cutoff > 0.0 && cutoff <= 180.0) {
+        return Err(e.loc.error(format!(
+            "`cutoff_angle` must be in (0, 180] degrees, got {cutoff}"
+        )));
+    }
+    let beam = props.float("beam_width")?.unwrap_or(0.75 * cutoff);
+    if !(0.0..=cutoff).contains(&beam) {
+        return Err(e.loc.error(format!(
+            "`beam_width` must be in [0, cutoff_angle = {cutoff}] degrees, got {beam}"
+        )));
+    }
+    Ok(SpotCone::new(
+        axis,
+        cutoff.to_radians() as f32,
+        beam.to_radians() as f32,
+    ))
 }
