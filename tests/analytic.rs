@@ -84,6 +84,46 @@ fn convex_diffuse_sphere_under_constant_sky_renders_albedo_times_sky() {
 }
 
 #[test]
+fn a_masked_quad_lets_through_what_its_opacity_leaves() {
+    // A quad fills the view in front of a constant sky of radiance 1. It is
+    // met with probability α: black, it ends the path; grey (kd 0.5), it
+    // reflects the sky seen from its front (kd · 1). Otherwise the path goes
+    // straight through to the sky.
+    for (kd, alpha, expected) in [(0.0f64, 0.25f64, 0.75f64), (0.5, 0.4, 0.4 * 0.5 + 0.6)] {
+        let text = format!(
+            r#"
+[camera]
+eye = [0, 0, 5]
+target = [0, 0, 0]
+fov = 10
+resolution = [8, 8]
+[render]
+spp = 256
+max_depth = 4
+[materials.leaf]
+kd = {kd}
+opacity = {alpha}
+[[shapes]]
+type = "quad"
+corners = [[-5, -5, 0], [5, -5, 0], [5, 5, 0], [-5, 5, 0]]
+material = "leaf"
+[environment]
+radiance = 1
+"#
+        );
+        for backend in backends() {
+            let film = render_scene(&scene(&text), backend);
+            let (mean, se) = mean_and_se(&film, 1);
+            // 5 standard errors: a false alarm once in ~1.7 million runs.
+            assert!(
+                (mean - expected).abs() < 5.0 * se + 1e-6,
+                "{backend:?} kd {kd} opacity {alpha}: {mean} ± {se}, expected {expected}"
+            );
+        }
+    }
+}
+
+#[test]
 fn point_light_over_diffuse_plane_follows_inverse_square_and_cosine() {
     // A camera with a tiny field of view looks at one point of the plane
     // y = 0; the light is at height 2 above the origin.

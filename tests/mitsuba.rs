@@ -9,7 +9,7 @@ use luz::accel::{Accel, BackendKind, BuildOptions};
 use luz::geometry::Geometry;
 use luz::math::Vec3;
 use luz::render::{render_with, RenderOptions};
-use luz::scene::{load_with, LoadOptions, Scene, SceneError};
+use luz::scene::{load_with, LoadOptions, Opacity, Scene, SceneError};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -197,7 +197,7 @@ fn old_files_are_upgraded() {
         <sampler type="independent"><integer name="sampleCount" value="7"/></sampler>
         <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
         <rfilter type="box"/></film></sensor>
-      <shape type="sphere"><bsdf type="diffuse">
+      <shape type="rectangle"><bsdf type="diffuse">
         <texture name="diffuseReflectance" type="checkerboard">
           <float name="uscale" value="4"/><float name="voffset" value="0.5"/></texture></bsdf></shape>
       <shape type="sphere"><bsdf type="dielectric"><float name="intIOR" value="1.33"/>
@@ -225,7 +225,8 @@ fn old_files_are_upgraded() {
 
 #[test]
 fn unsupported_features_warn_with_their_place_and_strict_refuses() {
-    let body = "<shape type=\"sphere\">\n<bsdf type=\"hair\"/></shape>\n<emitter type=\"spot\"/>";
+    let body =
+        "<shape type=\"sphere\">\n<bsdf type=\"hair\"/></shape>\n<emitter type=\"directional\"/>";
     let text = scene(body);
     let line = 1 + text.lines().position(|l| l.contains("hair")).unwrap();
     let s = load("warn", &[("s.xml", &text)], &LoadOptions::default()).unwrap();
@@ -239,7 +240,7 @@ fn unsupported_features_warn_with_their_place_and_strict_refuses() {
     assert!(s
         .warnings
         .iter()
-        .any(|w| w.contains("spot") && w.contains("left out")));
+        .any(|w| w.contains("directional") && w.contains("left out")));
     let strict = LoadOptions {
         strict: true,
         ..LoadOptions::default()
@@ -552,4 +553,116 @@ fn a_spot_light_sits_at_its_to_world_origin_and_aims_along_z() {
         message.contains("s.xml:") && message.contains("`beam_width`"),
         "{message}"
     );
+}
+
+#[test]
+fn a_mask_keeps_its_nested_bsdf_and_gains_an_opacity() {
+    let body = r#"<bsdf type="mask" id="constant"><float name="opacity" value="0.3"/>
+            <bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.4, 0.6"/></bsdf></bsdf>
+        <bsdf type="mask" id="default"><bsdf type="roughplastic"/></bsdf>
+        <bsdf type="mask" id="textured">
+            <texture name="opacity" type="checkerboard"/><bsdf type="diffuse"/></bsdf>
+        <shape type="sphere"><ref id="constant"/></shape>
+        <shape type="sphere"><ref id="default"/></shape>
+        <shape type="rectangle"><ref id="textured"/></shape>
+        <shape type="sphere"><ref id="textured"/></shape>"#;
+    let s = ok("mask", body);
+    // The one warning: a textured sphere's texture lies otherwise in luz.
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("a textured sphere"),
+        "{:?}",
+        s.warnings
+    );
+    let material = |i: usize| &s.materials[s.shapes[i].material as usize];
+    assert_eq!(material(0).opacity, Some(Opacity::Constant(0.3)));
+    assert!(close(material(0).kd, Vec3::new(0.2, 0.4, 0.6)));
+    // Mitsuba's default opacity is one half.
+    assert_eq!(material(1).opacity, Some(Opacity::Constant(0.5)));
+    assert!(material(1).bsdf.is_some(), "the nested rough plastic stays");
+    assert!(matches!(material(2).opacity, Some(Opacity::Texture(_))));
+    let message = ok_err(
+        "mask-two",
+        r#"<shape type="sphere"><bsdf type="mask"><bsdf type="diffuse"/><bsdf type="diffuse"/></bsdf></shape>"#,
+    );
+    assert!(
+        message.contains("exactly one nested <bsdf>, found 2"),
+        "{message}"
+    );
+}
+
+fn image(scene: &Scene, spp: u32) -> luz::image::Image {
+    let scene = Arc::new(scene.clone());
+    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let mut options = RenderOptions::from_scene(&scene);
+    options.samples = 0..spp;
+    render_with(&scene, &accel, &options, &()).0.image()
+}
+
+/// Mitsuba's reflecting BSDFs are black from behind unless `twosided`.
+#[test]
+fn a_bare_bsdf_is_one_sided_and_twosided_makes_it_two() {
+    let sky = r#"<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>"#;
+    for (flip, bsdf, want) in [
+        (false, r#"<bsdf type="diffuse"/>"#, 0.5),
+        (true, r#"<bsdf type="diffuse"/>"#, 0.0),
+        (
+            true,
+            r#"<bsdf type="twosided"><bsdf type="diffuse"/></bsdf>"#,
+            0.5,
+        ),
+        (true, r#"<bsdf type="roughplastic"/>"#, 0.0),
+        (true, "", 0.0),
+    ] {
+        let body = format!(
+            r#"{sky}<shape type="rectangle"><transform name="to_world"><scale value="3"/></transform>
+               <boolean name="flip_normals" value="{flip}"/>{bsdf}</shape>"#
+        );
+        let m = mean(&ok("sides", &body), 64);
+        // A grey diffuse under a white sky reflects 0.5 exactly in
+        // expectation; 64 × 64 samples put the mean well within 0.02.
+        assert!((m[1] - want).abs() < 0.02, "flip {flip} {bsdf}: {m:?}");
+    }
+}
+
+/// A 1×2 image, red on top, blue below: Mitsuba reads its top row at v = 0,
+/// which is the bottom edge of a rectangle and, since its OBJ reader turns
+/// v over, the top edge of an OBJ quad whose `vt` put v = 0 at the bottom.
+#[test]
+fn textures_stand_the_way_mitsuba_stands_them() {
+    let ppm = "P3\n1 2\n255\n255 0 0\n0 0 255\n";
+    let obj = "v -3 -3 0\nv 3 -3 0\nv 3 3 0\nv -3 3 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n";
+    let sky = r#"<emitter type="constant"><rgb name="radiance" value="1, 1, 1"/></emitter>"#;
+    let bsdf = r#"<bsdf type="diffuse"><texture name="reflectance" type="bitmap">
+        <string name="filename" value="t.ppm"/></texture></bsdf>"#;
+    for (shape, red_at_bottom) in [
+        (
+            r#"<shape type="rectangle"><transform name="to_world"><scale value="3"/></transform>"#,
+            true,
+        ),
+        (
+            r#"<shape type="obj"><string name="filename" value="q.obj"/>"#,
+            false,
+        ),
+    ] {
+        let xml = scene(&format!("{sky}{shape}{bsdf}</shape>"));
+        let s = load(
+            "stand",
+            &[("s.xml", &xml), ("t.ppm", ppm), ("q.obj", obj)],
+            &LoadOptions::default(),
+        )
+        .unwrap();
+        let img = image(&s, 4);
+        let (top, bottom) = (img.pixels[0], img.pixels[img.pixels.len() - 1]);
+        let (red, blue) = if red_at_bottom {
+            (bottom, top)
+        } else {
+            (top, bottom)
+        };
+        assert!(red.x > 0.3 && red.z < 0.01, "{shape}: {red} should be red");
+        assert!(
+            blue.z > 0.3 && blue.x < 0.01,
+            "{shape}: {blue} should be blue"
+        );
+    }
 }

@@ -146,6 +146,30 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             }
             // The vertex's numbers come in dimension order (`Dimension`).
             let vertex = depth - 1;
+            let mut lobe_number = None;
+            if let Some(opacity) = material.opacity {
+                // Mitsuba's mask: the surface is met with probability α,
+                // else the path goes on straight through it as through a
+                // delta lobe (a null interaction, which takes a segment
+                // of `max_depth` as in Mitsuba). Light sampling from the
+                // vertex before sees the masked surface as opaque, so an
+                // emitter reached through it counts fully, as it does
+                // after any delta lobe.
+                let u = sampler.get_1d(vertex, Dimension::Lobe);
+                let alpha = scene.opacity(opacity, &hit, &sp);
+                if u >= alpha {
+                    prev = None;
+                    ray = spawn_ray(sp.p, sp.p_err, sp.n, ray.dir);
+                    counts.bounce += 1;
+                    depth += 1;
+                    continue;
+                }
+                // What is left of the number below α is again uniform.
+                lobe_number = Some((u / alpha).min(ONE_MINUS_EPSILON));
+            }
+            if material.one_sided && cos_o <= 0.0 {
+                break;
+            }
             // Shading normal on the side of the outgoing direction: every
             // reflecting surface is two-sided.
             let entering = cos_o > 0.0;
@@ -158,6 +182,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                     ns,
                     wo,
                     depth,
+                    lobe_number,
                     sampler,
                     counts,
                     &mut beta,
@@ -168,9 +193,15 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 prev = next.pdf.map(|pdf| (sp.p, pdf));
                 next.wi
             } else {
-                let Some(Scatter { lobe, p, k }) =
-                    self.choose_lobe(shape.material, &hit, &sp, cos_o, sampler, vertex)
-                else {
+                let Some(Scatter { lobe, p, k }) = self.choose_lobe(
+                    shape.material,
+                    &hit,
+                    &sp,
+                    cos_o,
+                    lobe_number,
+                    sampler,
+                    vertex,
+                ) else {
                     break;
                 };
                 match lobe {
@@ -219,6 +250,8 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     /// material takes a number from the sampler as a mixed one does (and
     /// skips it when the diffuse lobe is certain), so the independent stream
     /// does not depend on which of the two evaluated the choice.
+    /// `lobe_number` is the number a mask has already drawn, if any.
+    #[allow(clippy::too_many_arguments)]
     #[inline]
     fn choose_lobe(
         &self,
@@ -226,20 +259,23 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
         cos_o: f32,
+        lobe_number: Option<f32>,
         sampler: &mut Sampler,
         vertex: u32,
     ) -> Option<Scatter> {
         let material = &self.scene.materials[material_id as usize];
+        let mut draw = || lobe_number.unwrap_or_else(|| sampler.get_1d(vertex, Dimension::Lobe));
         let Lobes::Diffuse { weight } = self.scene.shading(material_id).lobes else {
-            let u = sampler.get_1d(vertex, Dimension::Lobe);
-            return self.choose_mixed_lobe(material, hit, sp, cos_o, u);
+            return self.choose_mixed_lobe(material, hit, sp, cos_o, draw());
         };
         let p = weight * self.lobe_scale(weight)?;
-        let chosen = if p >= 1.0 {
-            sampler.skip_1d();
-            true
-        } else {
-            sampler.get_1d(vertex, Dimension::Lobe) < p
+        let chosen = match (p >= 1.0, lobe_number) {
+            (true, Some(_)) => true,
+            (true, None) => {
+                sampler.skip_1d();
+                true
+            }
+            (false, _) => draw() < p,
         };
         chosen.then_some(Scatter {
             lobe: Lobe::Diffuse,
@@ -305,7 +341,8 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     /// A vertex on a model of `crate::bsdf`: Russian roulette, light
     /// sampling unless every lobe is a delta, then the model's own sample.
     /// `None` ends the path; otherwise the direction and, for a non-delta
-    /// sample, its pdf for MIS at the emitter it may hit.
+    /// sample, its pdf for MIS at the emitter it may hit. `lobe_number` is
+    /// the number a mask has already drawn, if any.
     #[allow(clippy::too_many_arguments)]
     fn bsdf_vertex(
         &self,
@@ -315,6 +352,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         ns: Vec3,
         wo: Vec3,
         depth: u32,
+        lobe_number: Option<f32>,
         sampler: &mut Sampler,
         counts: &mut RayCounts,
         beta: &mut Rgb,
@@ -333,7 +371,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         };
         let frame = Frame::from_normal(ns);
         let wo_local = frame.to_local(wo);
-        let mut u_lobe = sampler.get_1d(vertex, Dimension::Lobe);
+        let mut u_lobe = lobe_number.unwrap_or_else(|| sampler.get_1d(vertex, Dimension::Lobe));
         if self.settings.russian_roulette {
             let q = bsdf.survival(wo_local, &ctx);
             if u_lobe >= q {

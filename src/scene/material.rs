@@ -27,6 +27,23 @@ pub struct Material {
     /// A reflection model in place of the kd/ks/kt mix; `kd` (textured)
     /// is then the base colour of the models that have one.
     pub bsdf: Option<Bsdf>,
+    /// How much of the surface is there (Mitsuba's `mask`); `None` is
+    /// opaque.
+    pub opacity: Option<Opacity>,
+    /// Black from behind, as Mitsuba's reflecting BSDFs are unless wrapped
+    /// in `twosided`; luz's own materials reflect on both sides.
+    pub one_sided: bool,
+}
+
+/// The fraction of a surface that is there: light meets the material with
+/// this probability and otherwise passes straight through (a cut-out leaf,
+/// a net).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Opacity {
+    /// In [0, 1].
+    Constant(f32),
+    /// A texture's luminance (Mitsuba's `eval_1` of a colour texture).
+    Texture(u32),
 }
 
 impl Default for Material {
@@ -41,6 +58,8 @@ impl Default for Material {
             emission: Rgb::ZERO,
             texture: None,
             bsdf: None,
+            opacity: None,
+            one_sided: false,
         }
     }
 }

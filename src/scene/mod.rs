@@ -14,11 +14,11 @@ pub use camera::{Camera, FovAxis};
 pub use environment::{EnvMap, EnvSample, Environment};
 pub use light::{LightSampler, PointLight, SpotCone};
 pub use load::{load, load_bytes, load_bytes_with, load_str, load_with, LoadOptions, SceneError};
-pub use material::{Lobes, Material, Shading};
+pub use material::{Lobes, Material, Opacity, Shading};
 pub use texture::{Texture, UvTransform};
 
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit, SurfacePoint};
-use crate::math::{Ray, Rgb, Vec3};
+use crate::math::{luminance, Ray, Rgb, Vec3};
 use crate::sampling::SamplerKind;
 use std::path::PathBuf;
 
@@ -166,6 +166,20 @@ impl Scene {
     #[inline]
     pub fn material_of(&self, geom: u32) -> &Material {
         &self.materials[self.shapes[geom as usize].material as usize]
+    }
+
+    /// The opacity of a masked material at a surface point, in [0, 1].
+    #[inline]
+    pub fn opacity(&self, opacity: Opacity, hit: &PreliminaryHit, sp: &SurfacePoint) -> f32 {
+        match opacity {
+            Opacity::Constant(alpha) => alpha,
+            Opacity::Texture(t) => {
+                let shape = &self.shapes[hit.geom as usize];
+                let uv = shape.geometry.uv(hit.prim, &prim_hit(hit), sp);
+                let texel = self.textures[t as usize].eval(shape.uv_transform.apply(uv));
+                luminance(texel).clamp(0.0, 1.0)
+            }
+        }
     }
 
     /// Diffuse albedo at a surface point (texture applied).

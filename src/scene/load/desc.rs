@@ -110,6 +110,14 @@ pub(super) struct MaterialDesc {
     /// Rough models: the microfacet roughness α and its distribution.
     pub(super) roughness: Option<f32>,
     pub(super) distribution: Option<String>,
+    pub(super) opacity: Option<OpacityDesc>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+pub(super) enum OpacityDesc {
+    Constant(f32),
+    Texture(String),
 }
 
 #[derive(Deserialize)]

@@ -1,6 +1,7 @@
 //! The `[textures]` and `[materials]` tables.
 
 use super::*;
+use crate::scene::Opacity;
 
 impl Ctx<'_> {
     pub(super) fn texture(&self, name: &str, t: &Sp<TextureDesc>) -> Result<Texture, SceneError> {
@@ -47,6 +48,46 @@ impl Ctx<'_> {
     }
 
     pub(super) fn material(
+        &self,
+        name: &str,
+        m: &Sp<MaterialDesc>,
+        textures: &BTreeMap<String, u32>,
+    ) -> Result<Material, SceneError> {
+        let opacity = self.opacity(m, textures)?;
+        Ok(Material {
+            opacity,
+            ..self.surface(name, m, textures)?
+        })
+    }
+
+    /// `opacity`: a number in [0, 1] or the name of a texture whose
+    /// luminance it is.
+    fn opacity(
+        &self,
+        m: &Sp<MaterialDesc>,
+        textures: &BTreeMap<String, u32>,
+    ) -> Result<Option<Opacity>, SceneError> {
+        let span = m.span();
+        match &m.get_ref().opacity {
+            None => Ok(None),
+            Some(OpacityDesc::Constant(alpha)) if (0.0..=1.0).contains(alpha) => {
+                Ok(Some(Opacity::Constant(*alpha)))
+            }
+            Some(OpacityDesc::Constant(alpha)) => Err(self.field_error(
+                &span,
+                "opacity",
+                format!("must be in [0, 1] or a texture's name, got {alpha}"),
+            )),
+            Some(OpacityDesc::Texture(t)) => match textures.get(t) {
+                Some(&id) => Ok(Some(Opacity::Texture(id))),
+                None => {
+                    Err(self.field_error(&span, "opacity", format!("no texture named {}", echo(t))))
+                }
+            },
+        }
+    }
+
+    fn surface(
         &self,
         name: &str,
         m: &Sp<MaterialDesc>,
@@ -140,6 +181,8 @@ impl Ctx<'_> {
             emission,
             texture,
             bsdf: None,
+            opacity: None,
+            one_sided: false,
         })
     }
 

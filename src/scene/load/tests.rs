@@ -1,4 +1,5 @@
 use super::*;
+use crate::scene::Opacity;
 
 const MINIMAL: &str = "[camera]\neye = [0, 1, 3]\ntarget = [0, 1, 0]\n";
 
@@ -340,5 +341,28 @@ fn spot_lights_and_their_errors() {
         assert!(message.contains(&format!("`{field}`")), "{message}");
         assert!(message.contains(says), "{message}");
         assert!(message.contains(&format!("test.toml:{line}:")), "{message}");
+    }
+}
+
+#[test]
+fn opacity_is_a_number_or_a_texture() {
+    let head = "[camera]\neye = [0, 0, 5]\ntarget = [0, 0, 0]\n[textures.leaf]\nchecker = [0, 1]\n[materials.m]\n";
+    let scene = |tail: &str| load_str(&format!("{head}{tail}"), Path::new("o.toml"));
+    let half = scene("opacity = 0.5\n").unwrap();
+    assert_eq!(half.materials[0].opacity, Some(Opacity::Constant(0.5)));
+    let textured = scene("type = \"roughplastic\"\nopacity = \"leaf\"\n").unwrap();
+    assert_eq!(textured.materials[0].opacity, Some(Opacity::Texture(0)));
+    assert_eq!(scene("kd = 0.3\n").unwrap().materials[0].opacity, None);
+    for (tail, says) in [
+        ("opacity = 1.5\n", "must be in [0, 1]"),
+        ("opacity = -0.1\n", "must be in [0, 1]"),
+        ("opacity = \"fern\"\n", "no texture named `fern`"),
+    ] {
+        let message = err(&format!("{head}{tail}")).to_string();
+        assert!(
+            message.contains("test.toml:7:") && message.contains("`opacity`"),
+            "{message}"
+        );
+        assert!(message.contains(says), "{message}");
     }
 }

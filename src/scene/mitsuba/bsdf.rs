@@ -9,8 +9,8 @@ use super::xml::Elem;
 use super::Builder;
 use crate::bsdf::{Conductor, Distribution, Microfacet, RoughPlastic};
 use crate::echo::echo;
-use crate::math::Rgb;
-use crate::scene::{Material, SceneError, UvTransform};
+use crate::math::{luminance, Rgb};
+use crate::scene::{Material, Opacity, SceneError, UvTransform};
 
 /// A material and the uv transform its texture asks of the shapes using it.
 #[derive(Clone, Debug)]
@@ -72,7 +72,8 @@ fn build(b: &mut Builder, e: &Elem) -> Result<Bsdf, SceneError> {
     let name = e.attr("id").unwrap_or("").to_string();
     let mut out = match e.kind() {
         "diffuse" => diffuse(b, &props)?,
-        "twosided" | "mask" | "bumpmap" | "normalmap" | "blendbsdf" => wrapper(b, &props)?,
+        "mask" => mask(b, &props)?,
+        "twosided" | "bumpmap" | "normalmap" | "blendbsdf" => wrapper(b, &props)?,
         "conductor" | "roughconductor" => conductor(b, &props)?,
         "dielectric" | "roughdielectric" => dielectric(b, &props)?,
         "thindielectric" => thin_dielectric(b, &props)?,
@@ -99,6 +100,15 @@ fn build(b: &mut Builder, e: &Elem) -> Result<Bsdf, SceneError> {
         }
     };
     out.material.name = name;
+    match e.kind() {
+        // Mitsuba's reflecting models are black from behind, unless
+        // wrapped in `twosided`; its dielectrics transmit both ways.
+        "diffuse" | "conductor" | "roughconductor" | "plastic" | "roughplastic" => {
+            out.material.one_sided = true
+        }
+        "twosided" => out.material.one_sided = false,
+        _ => {}
+    }
     props.finish(&mut b.problems)?;
     Ok(out)
 }
@@ -158,7 +168,6 @@ fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
     let what = match e.kind() {
         "twosided" if nested.len() > 1 => Some("a different back side is not supported"),
         "twosided" => None,
-        "mask" => Some("the opacity mask is left out"),
         "bumpmap" | "normalmap" => Some("the shading-normal perturbation is left out"),
         _ => Some("luz does not blend BSDFs"),
     };
@@ -175,6 +184,39 @@ fn wrapper(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
         }
     }
     bsdf(b, first)
+}
+
+/// `mask`: its nested BSDF with an `opacity` (Mitsuba's default 0.5), a
+/// number or a texture's luminance.
+fn mask(b: &mut Builder, props: &Props) -> Result<Bsdf, SceneError> {
+    let e = props.elem;
+    let nested = props.objects("bsdf")?;
+    let [inner] = nested.as_slice() else {
+        return Err(e.loc.error(format!(
+            "{} needs exactly one nested <bsdf>, found {}",
+            e.describe(),
+            nested.len()
+        )));
+    };
+    let (opacity, opacity_uv) = match props.color("opacity", Use::Reflectance, &mut b.problems)? {
+        None => (Opacity::Constant(0.5), None),
+        Some(Value::Rgb(c)) => (Opacity::Constant(luminance(c).clamp(0.0, 1.0)), None),
+        Some(Value::Texture(t)) => {
+            let (texture, uv) = b.texture(t)?;
+            (Opacity::Texture(texture), uv)
+        }
+    };
+    let mut out = bsdf(b, inner)?;
+    out.material.opacity = Some(opacity);
+    match (out.uv, opacity_uv) {
+        (None, uv) => out.uv = uv,
+        (Some(a), Some(o)) if a != o => b.problems.warn(
+            &e.loc,
+            "the opacity's `to_uv` differs from the nested BSDF's; luz maps both with the BSDF's",
+        )?,
+        _ => {}
+    }
+    Ok(out)
 }
 
 /// A rough model's microfacet distribution: Mitsuba's `distribution`

@@ -171,11 +171,12 @@ impl<'e, 'i> Builder<'e, 'i> {
         Ok(done)
     }
 
-    /// Mitsuba's default BSDF, a 0.5 grey diffuse, as luz's.
+    /// Mitsuba's default BSDF, a one-sided 0.5 grey diffuse.
     fn default_material(&mut self) -> u32 {
         *self.default_material.get_or_insert_with(|| {
             self.materials.push(Material {
                 name: "(default)".into(),
+                one_sided: true,
                 ..Material::default()
             });
             self.materials.len() as u32 - 1

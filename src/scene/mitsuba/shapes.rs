@@ -7,7 +7,7 @@ use super::Builder;
 use crate::echo::echo;
 use crate::geometry::{within_bounds, Geometry, Mesh, Quad, Sphere};
 use crate::math::Vec2;
-use crate::scene::{SceneError, Shape};
+use crate::scene::{Opacity, SceneError, Shape};
 use glam::{DMat4, DVec3};
 
 /// Segments of the polygon that stands in for a disk.
@@ -54,6 +54,14 @@ impl<'e> Builder<'e, '_> {
             Some(b) => self.material_of(b)?,
             None => (self.default_material(), None),
         };
+        let m = &self.materials[material as usize];
+        let textured = m.texture.is_some() || matches!(m.opacity, Some(Opacity::Texture(_)));
+        if textured && e.kind() == "sphere" {
+            self.problems.warn(
+                &e.loc,
+                "a textured sphere: luz wraps textures around the world's y axis, Mitsuba around the sphere's local z; the texture lies differently",
+            )?;
+        }
         let mut shape = Shape::new(geometry, material);
         if let Some(uv) = uv {
             shape.uv_transform = uv;
@@ -74,6 +82,12 @@ impl<'e> Builder<'e, '_> {
         let path = self.file(e, name)?;
         let (mut mesh, mut notes) = crate::scene::mesh_io::read_mesh(&path)
             .map_err(|err| e.loc.error(format!("`filename`: {err}")))?;
+        // Mitsuba's OBJ reader turns v over (its images have v = 0 on top,
+        // as `bitmap` keeps them): so does luz's import, which stores
+        // bitmaps upside down for luz's v-up lookup.
+        if let (Some(uvs), "obj") = (&mut mesh.uvs, e.kind()) {
+            uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
+        }
         if *m != DMat4::IDENTITY {
             mesh.transform(&m.as_mat4());
             let before = mesh.indices.len();

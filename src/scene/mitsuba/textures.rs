@@ -79,10 +79,18 @@ impl Builder<'_, '_> {
             )?;
         }
         match crate::image::io::read_texture(&path) {
+            // Mitsuba reads row 0 at v = 0, luz at v = 1: the rows are
+            // stored upside down so that luz's lookup reads Mitsuba's.
             Ok(img) => Ok(Texture::Image {
                 width: img.width,
                 height: img.height,
-                texels: img.pixels,
+                texels: img
+                    .pixels
+                    .chunks_exact(img.width as usize)
+                    .rev()
+                    .flatten()
+                    .copied()
+                    .collect(),
             }),
             Err(e) => {
                 self.problems.warn(
