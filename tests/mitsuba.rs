@@ -534,6 +534,7 @@ fn a_spot_light_sits_at_its_to_world_origin_and_aims_along_z() {
         </emitter>"#;
     let s = ok("spot", body);
     let light = &s.point_lights[0];
+    let cone = light.spot.as_ref().expect("a spot cone");
     assert!(close(light.position, Vec3::new(1.0, 4.0, 0.0)), "{light:?}");
     assert!(
         close(light.intensity, Vec3::new(2.0, 3.0, 4.0)),
@@ -541,10 +542,10 @@ fn a_spot_light_sits_at_its_to_world_origin_and_aims_along_z() {
     );
     // Mitsuba's default beam is three quarters of the cutoff: 22.5°.
     let off = |deg: f32| Vec3::new(deg.to_radians().sin(), -deg.to_radians().cos(), 0.0);
-    assert_eq!(light.falloff(off(22.0)), 1.0);
-    assert!((light.falloff(off(26.25)) - 0.5).abs() < 1e-5);
-    assert_eq!(light.falloff(off(30.5)), 0.0);
-    assert_eq!(light.falloff(-off(0.0)), 0.0, "it shines one way");
+    assert_eq!(cone.falloff(off(22.0)), 1.0);
+    assert!((cone.falloff(off(26.25)) - 0.5).abs() < 1e-5);
+    assert_eq!(cone.falloff(off(30.5)), 0.0);
+    assert_eq!(cone.falloff(-off(0.0)), 0.0, "it shines one way");
     let message = ok_err(
         "spot-beam",
         r#"<emitter type="spot"><float name="cutoff_angle" value="10"/><float name="beam_width" value="12"/></emitter>"#,

@@ -26,7 +26,7 @@ use crate::sampling::{cosine_hemisphere, power_heuristic, Dimension, Sampler};
 
 /// The largest f32 below 1.
 const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-use crate::scene::{Lobes, Material, Scene};
+use crate::scene::{Lobes, Material, Opacity, Scene};
 use std::f32::consts::FRAC_1_PI;
 
 /// Settings of one integration.
@@ -146,92 +146,83 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             }
             // The vertex's numbers come in dimension order (`Dimension`).
             let vertex = depth - 1;
-            let mut lobe_number = None;
-            if let Some(opacity) = material.opacity {
-                // Mitsuba's mask: the surface is met with probability α,
-                // else the path goes on straight through it as through a
-                // delta lobe (a null interaction, which takes a segment
-                // of `max_depth` as in Mitsuba). Light sampling from the
-                // vertex before sees the masked surface as opaque, so an
-                // emitter reached through it counts fully, as it does
-                // after any delta lobe.
-                let u = sampler.get_1d(vertex, Dimension::Lobe);
-                let alpha = scene.opacity(opacity, &hit, &sp);
-                if u >= alpha {
-                    prev = None;
-                    ray = spawn_ray(sp.p, sp.p_err, sp.n, ray.dir);
-                    counts.bounce += 1;
-                    depth += 1;
-                    continue;
-                }
-                // What is left of the number below α is again uniform.
-                lobe_number = Some((u / alpha).min(ONE_MINUS_EPSILON));
-            }
-            if material.one_sided && cos_o <= 0.0 {
-                break;
-            }
-            // Shading normal on the side of the outgoing direction: every
-            // reflecting surface is two-sided.
-            let entering = cos_o > 0.0;
-            let ns = if entering { sp.n } else { -sp.n };
-            let wi = if let (Lobes::Bsdf, Some(bsdf)) = (shading.lobes, &material.bsdf) {
-                let Some(next) = self.bsdf_vertex(
-                    bsdf,
-                    &hit,
-                    &sp,
-                    ns,
-                    wo,
-                    depth,
-                    lobe_number,
-                    sampler,
-                    counts,
-                    &mut beta,
-                    &mut radiance,
-                ) else {
-                    break;
-                };
-                prev = next.pdf.map(|pdf| (sp.p, pdf));
-                next.wi
+            // A mask is met with probability α; else the path goes on
+            // straight through the surface (`meets_mask`).
+            let lobe_number = material
+                .opacity
+                .map(|o| self.meets_mask(o, &hit, &sp, sampler, vertex));
+            let wi = if let Some(None) = lobe_number {
+                prev = None;
+                ray.dir
             } else {
-                let Some(Scatter { lobe, p, k }) = self.choose_lobe(
-                    shape.material,
-                    &hit,
-                    &sp,
-                    cos_o,
-                    lobe_number,
-                    sampler,
-                    vertex,
-                ) else {
+                let lobe_number = lobe_number.flatten();
+                // Mitsuba's one-sided BSDFs are black from behind; luz's
+                // own materials reflect on both sides.
+                if material.one_sided && cos_o <= 0.0 {
                     break;
-                };
-                match lobe {
-                    Lobe::Diffuse => {
-                        beta /= p;
-                        radiance +=
-                            beta * self.direct(&sp, ns, &Lambert(k), depth, sampler, counts);
-                        let frame = Frame::from_normal(ns);
-                        let u = sampler.get_2d(vertex, Dimension::Direction);
-                        let local = cosine_hemisphere(u);
-                        let wi = frame.to_world(local);
-                        beta *= k;
-                        prev = Some((sp.p, local.z * FRAC_1_PI));
-                        wi
-                    }
-                    Lobe::Mirror => {
-                        beta *= k / p;
-                        prev = None;
-                        reflect(wo, ns)
-                    }
-                    Lobe::Refraction => {
-                        beta *= k / p;
-                        prev = None;
-                        let eta = if entering {
-                            material.ior
-                        } else {
-                            1.0 / material.ior
-                        };
-                        // Total internal reflection sends the light back.
-                        refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
+                }
+                // Shading normal on the side of the outgoing direction.
+                let entering = cos_o > 0.0;
+                let ns = if entering { sp.n } else { -sp.n };
+                if let (Lobes::Bsdf, Some(bsdf)) = (shading.lobes, &material.bsdf) {
+                    let Some(next) = self.bsdf_vertex(
+                        bsdf,
+                        &hit,
+                        &sp,
+                        ns,
+                        wo,
+                        depth,
+                        lobe_number,
+                        sampler,
+                        counts,
+                        &mut beta,
+                        &mut radiance,
+                    ) else {
+                        break;
+                    };
+                    prev = next.pdf.map(|pdf| (sp.p, pdf));
+                    next.wi
+                } else {
+                    let Some(Scatter { lobe, p, k }) = self.choose_lobe(
+                        shape.material,
+                        &hit,
+                        &sp,
+                        cos_o,
+                        lobe_number,
+                        sampler,
+                        vertex,
+                    ) else {
+                        break;
+                    };
+                    match lobe {
+                        Lobe::Diffuse => {
+                            beta /= p;
+                            radiance +=
+                                beta * self.direct(&sp, ns, &Lambert(k), depth, sampler, counts);
+                            let frame = Frame::from_normal(ns);
+                            let u = sampler.get_2d(vertex, Dimension::Direction);
+                            let local = cosine_hemisphere(u);
+                            let wi = frame.to_world(local);
+                            beta *= k;
+                            prev = Some((sp.p, local.z * FRAC_1_PI));
+                            wi
+                        }
+                        Lobe::Mirror => {
+                            beta *= k / p;
+                            prev = None;
+                            reflect(wo, ns)
+                        }
+                        Lobe::Refraction => {
+                            beta *= k / p;
+                            prev = None;
+                            let eta = if entering {
+                                material.ior
+                            } else {
+                                1.0 / material.ior
+                            };
+                            // Total internal reflection sends the light back.
+                            refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
+                        }
                     }
                 }
             };
@@ -243,6 +234,30 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             depth += 1;
         }
         radiance
+    }
+
+    /// Mitsuba's mask: whether the path meets the surface (probability α)
+    /// and, if it does, the number left for the lobe choice; `None` is a
+    /// null interaction, which goes on straight through the surface as
+    /// through a delta lobe and takes a segment of `max_depth`, as in
+    /// Mitsuba. Light sampling from the vertex before sees the masked
+    /// surface as opaque, so an emitter reached through it counts fully,
+    /// as it does after any delta lobe. Out of line: the vertices of
+    /// opaque materials do not pay for it.
+    #[cold]
+    #[inline(never)]
+    fn meets_mask(
+        &self,
+        opacity: Opacity,
+        hit: &PreliminaryHit,
+        sp: &SurfacePoint,
+        sampler: &mut Sampler,
+        vertex: u32,
+    ) -> Option<f32> {
+        let u = sampler.get_1d(vertex, Dimension::Lobe);
+        let alpha = self.scene.opacity(opacity, hit, sp);
+        // What is left of the number below α is again uniform.
+        (u < alpha).then(|| (u / alpha).min(ONE_MINUS_EPSILON))
     }
 
     /// Chooses the lobe followed at a vertex; `None` when the path ends
@@ -423,14 +438,18 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             if !surface.reaches(cos) || d2 == 0.0 {
                 continue;
             }
-            let d = d2.sqrt();
-            let falloff = light.falloff(-to_light / d);
-            if falloff == 0.0 {
-                continue;
+            let mut falloff = 1.0;
+            if let Some(cone) = &light.spot {
+                // Outside its cone a spot sends nothing: no shadow ray.
+                falloff = cone.falloff(-to_light / d2.sqrt());
+                if falloff == 0.0 {
+                    continue;
+                }
             }
             let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, ns);
             counts.shadow += 1;
             if !self.backend.occluded(&ray) {
+                let d = d2.sqrt();
                 let (f_cos, _) = surface.eval(to_light / d, cos / d);
                 sum += f_cos * light.intensity * (falloff / d2);
             }

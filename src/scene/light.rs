@@ -17,15 +17,6 @@ pub struct PointLight {
     pub spot: Option<SpotCone>,
 }
 
-impl PointLight {
-    /// The fraction of `intensity` sent along the unit direction `d` away
-    /// from the light.
-    #[inline]
-    pub fn falloff(&self, d: Vec3) -> f32 {
-        self.spot.as_ref().map_or(1.0, |cone| cone.falloff(d))
-    }
-}
-
 /// Mitsuba's `spot` profile: full intensity within `beam_width` of the
 /// axis, falling linearly in angle to zero at `cutoff_angle`.
 #[derive(Clone, Debug, PartialEq)]
@@ -54,8 +45,10 @@ impl SpotCone {
         }
     }
 
+    /// The fraction of the intensity sent along the unit direction `d`
+    /// away from the light.
     #[inline]
-    fn falloff(&self, d: Vec3) -> f32 {
+    pub fn falloff(&self, d: Vec3) -> f32 {
         let cos = self.axis.dot(d);
         if cos <= self.cos_cutoff {
             0.0
@@ -292,14 +285,10 @@ mod tests {
     #[test]
     fn spot_falloff_is_flat_then_linear_in_angle_then_zero() {
         let (cutoff, beam) = (40f32.to_radians(), 20f32.to_radians());
-        let light = PointLight {
-            position: Vec3::ZERO,
-            intensity: Rgb::ONE,
-            spot: Some(SpotCone::new(Vec3::new(0.0, -2.0, 0.0), cutoff, beam)),
-        };
+        let cone = SpotCone::new(Vec3::new(0.0, -2.0, 0.0), cutoff, beam);
         let at = |degrees: f32| {
             let a = degrees.to_radians();
-            light.falloff(Vec3::new(a.sin(), -a.cos(), 0.0))
+            cone.falloff(Vec3::new(a.sin(), -a.cos(), 0.0))
         };
         for (degrees, want) in [
             (0.0, 1.0),
@@ -322,12 +311,6 @@ mod tests {
         assert_eq!(hard.falloff(Vec3::Z), 1.0);
         assert_eq!(hard.falloff(Vec3::new(0.0, 1.0, 1.0).normalize()), 0.0);
         assert_eq!(hard.falloff(Vec3::new(0.0, 0.8, 1.0).normalize()), 1.0);
-        // An unconed point light sends its intensity everywhere.
-        let point = PointLight {
-            spot: None,
-            ..light
-        };
-        assert_eq!(point.falloff(Vec3::X), 1.0);
     }
 
     /// Every sample's pdf is the one `pdf` reports for the point, whichever

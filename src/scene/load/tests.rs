@@ -302,13 +302,13 @@ fn spot_lights_and_their_errors() {
         Path::new("s.toml"),
     )
     .unwrap();
-    let light = &scene.point_lights[0];
+    let cone = scene.point_lights[0].spot.as_ref().expect("a spot cone");
     // Straight down is the axis, 25° off it is past the 22.5° beam, 31° off
     // is past the cutoff.
     let off = |deg: f32| Vec3::new(deg.to_radians().sin(), -deg.to_radians().cos(), 0.0);
-    assert_eq!(light.falloff(off(0.0)), 1.0);
-    assert!((light.falloff(off(25.0)) - 5.0 / 7.5).abs() < 1e-5);
-    assert_eq!(light.falloff(off(31.0)), 0.0);
+    assert_eq!(cone.falloff(off(0.0)), 1.0);
+    assert!((cone.falloff(off(25.0)) - 5.0 / 7.5).abs() < 1e-5);
+    assert_eq!(cone.falloff(off(31.0)), 0.0);
     for (tail, field, line, says) in [
         ("type = \"spot\"\n", "type", 7, "needs a `target`"),
         (
