@@ -184,7 +184,11 @@ impl Ctx<'_> {
             "mesh" => {
                 let file = sd.file.as_ref().ok_or_else(|| need("file"))?;
                 let path = self.resolve_file(span, file)?;
-                let (mut mesh, mut notes) = crate::scene::mesh_io::read_mesh(&path)
+                let crate::scene::mesh_io::MeshFile {
+                    mut mesh,
+                    mut notes,
+                    ..
+                } = crate::scene::mesh_io::read_mesh(&path)
                     .map_err(|e| self.field_error(span, "file", e.to_string()))?;
                 let scale = match sd.scale {
                     None => Vec3::ONE,

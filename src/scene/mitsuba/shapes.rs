@@ -72,7 +72,11 @@ impl<'e> Builder<'e, '_> {
             .string("filename")?
             .ok_or_else(|| e.loc.error(format!("{} needs `filename`", e.describe())))?;
         let path = self.file(e, name)?;
-        let (mut mesh, mut notes) = crate::scene::mesh_io::read_mesh(&path)
+        let crate::scene::mesh_io::MeshFile {
+            mut mesh,
+            mut notes,
+            ..
+        } = crate::scene::mesh_io::read_mesh(&path)
             .map_err(|err| e.loc.error(format!("`filename`: {err}")))?;
         if *m != DMat4::IDENTITY {
             mesh.transform(&m.as_mat4());
