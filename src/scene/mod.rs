@@ -8,6 +8,7 @@ pub mod load;
 pub mod material;
 pub mod mesh_io;
 pub mod mitsuba;
+mod obj_materials;
 pub mod texture;
 
 pub use camera::{Camera, FovAxis};

@@ -34,7 +34,7 @@ mod ply;
 #[cfg(test)]
 mod test_support;
 
-pub(crate) use checks::{drop_degenerate, is_degenerate};
+pub(crate) use checks::{drop_degenerate_grouped, is_degenerate};
 pub use groups::{MaterialGroups, Named};
 pub use mtl::{read_mtl, MtlLibrary, MtlMaterial};
 
