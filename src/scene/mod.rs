@@ -90,6 +90,21 @@ pub struct Scene {
     shading: Vec<Shading>,
 }
 
+/// The one warning of a scene on the mesh files it left out, each with no
+/// triangle of any area (all degenerate), named by `files`.
+pub(crate) fn no_area_warning(files: &[String]) -> String {
+    let n = files.len();
+    let plural = if n == 1 { "" } else { "es" };
+    let shown = files.iter().take(8).cloned().collect::<Vec<_>>().join(", ");
+    let more = match n.saturating_sub(8) {
+        0 => String::new(),
+        k => format!(" and {k} more"),
+    };
+    format!(
+        "left out {n} mesh{plural} with no triangle of any area (all degenerate): {shown}{more}"
+    )
+}
+
 /// Samples the emitters of the shapes that ask for NEE.
 fn light_sampler(shapes: &[Shape], materials: &[Material]) -> LightSampler {
     LightSampler::new(shapes, |s| materials[s.material as usize].emission)

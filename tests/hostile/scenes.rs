@@ -322,6 +322,35 @@ fn unused_mesh_data_earns_one_warning() {
     assert!(!stderr.contains("warning"), "{stderr}");
 }
 
+/// Meshes whose triangles are all degenerate are left out, the render goes
+/// on, and one warning names them all.
+#[test]
+fn meshes_of_no_area_earn_one_warning() {
+    let dir = temp_dir("no-area");
+    let mesh =
+        |file: &str| format!("[[shapes]]\ntype = \"mesh\"\nfile = \"{file}\"\nmaterial = \"m\"\n");
+    let scene = format!(
+        "{HEAD}{}{}{}",
+        mesh("a.ply"),
+        mesh("b.obj"),
+        mesh("tri.ply")
+    );
+    let flat_ply = format!("{PLY_HEADER}0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n");
+    let flat_obj = "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\nf 3 2 1\n";
+    let tri = tri_ply();
+    let files: [(&str, &[u8]); 3] = [
+        ("a.ply", flat_ply.as_bytes()),
+        ("b.obj", flat_obj.as_bytes()),
+        ("tri.ply", tri.as_bytes()),
+    ];
+    let stderr = render_ok(&dir, "no-area", &scene, &files);
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    for needle in ["left out 2 meshes", "a.ply", "b.obj", "degenerate"] {
+        assert!(warnings[0].contains(needle), "no {needle}: {}", warnings[0]);
+    }
+}
+
 /// A 2 MB `.ply.gz` whose header declares three vertices and one face,
 /// followed by 2 GiB of zeros: inflation stops where the declared elements
 /// end, long before memory runs out.

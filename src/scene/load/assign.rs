@@ -1,6 +1,7 @@
 //! The shapes of the `[[shapes]]` tables with their materials: the named
 //! one, luz's default, or for an OBJ mesh without `material` the ones its
-//! faces ask for in its `.mtl` (one shape per material).
+//! faces ask for in its `.mtl` (one shape per material); meshes with no
+//! triangle of any area are left out, with one warning for them all.
 
 use super::*;
 use crate::scene::obj_materials::obj_parts;
@@ -35,10 +36,15 @@ impl Ctx<'_> {
             })
         };
         let mut shapes = Vec::new();
+        let mut no_area = Vec::new();
         for s in descs {
             let span = s.span();
             let sd = s.get_ref();
             let geometry = match self.geometry(&span, sd, warnings)? {
+                Built::NoArea(path) => {
+                    no_area.push(echo(&path.display().to_string()));
+                    continue;
+                }
                 Built::MeshFile { path, mesh, groups }
                     if sd.material.is_none() && !groups.is_empty() =>
                 {
@@ -72,6 +78,9 @@ impl Ctx<'_> {
             };
             let nee = sd.nee.unwrap_or(false);
             shapes.push(self.shape(&span, sd, geometry, material, nee, materials)?);
+        }
+        if !no_area.is_empty() {
+            warnings.push(crate::scene::no_area_warning(&no_area));
         }
         Ok(shapes)
     }

@@ -2,7 +2,9 @@
 //! `translate`, with the material groups of an OBJ file's faces.
 
 use super::*;
-use crate::scene::mesh_io::{drop_degenerate_grouped, read_mesh, MaterialGroups, MeshFile};
+use crate::scene::mesh_io::{
+    drop_degenerate_grouped, read_mesh, MaterialGroups, MeshError, MeshFile,
+};
 
 /// What a shape table builds.
 pub(super) enum Built {
@@ -15,6 +17,8 @@ pub(super) enum Built {
         mesh: Mesh,
         groups: MaterialGroups,
     },
+    /// A mesh file with no triangle of any area, once placed: left out.
+    NoArea(PathBuf),
 }
 
 impl Ctx<'_> {
@@ -35,6 +39,7 @@ impl Ctx<'_> {
             mut groups,
         } = match read_mesh(&path) {
             Ok(read) => read,
+            Err(MeshError::NoArea { .. }) => return Ok(Built::NoArea(path)),
             Err(e) => return Err(self.field_error(span, "file", e.to_string())),
         };
         let scale = match sd.scale {
@@ -86,11 +91,7 @@ impl Ctx<'_> {
             let before = mesh.indices.len();
             let dropped = drop_degenerate_grouped(&mesh.positions, &mut mesh.indices, &mut groups);
             if mesh.indices.is_empty() {
-                return Err(self.field_error(
-                    span,
-                    "scale",
-                    "every triangle of the mesh is degenerate once transformed",
-                ));
+                return Ok(Built::NoArea(path));
             }
             if dropped > 0 {
                 notes.push(format!(

@@ -65,6 +65,10 @@ pub fn load_str(text: &str, path: &Path, options: &LoadOptions) -> Result<Scene,
         root.loc
             .error("the scene has no <sensor>; luz needs a perspective camera")
     })?;
+    if !b.no_area.is_empty() {
+        b.problems
+            .warn(&root.loc, super::no_area_warning(&b.no_area))?;
+    }
     let mut scene = Scene::new(
         camera,
         b.materials,
@@ -135,6 +139,8 @@ struct Builder<'e, 'i> {
     /// would otherwise recurse for ever.
     bsdf_depth: usize,
     shapes: Vec<Shape>,
+    /// The mesh files left out, with no triangle of any area.
+    no_area: Vec<String>,
     point_lights: Vec<PointLight>,
     environment: Option<crate::scene::Environment>,
 }
@@ -152,6 +158,7 @@ impl<'e, 'i> Builder<'e, 'i> {
             default_material: None,
             bsdf_depth: 0,
             shapes: Vec::new(),
+            no_area: Vec::new(),
             point_lights: Vec::new(),
             environment: None,
         }

@@ -9,7 +9,9 @@ use super::Builder;
 use crate::echo::echo;
 use crate::geometry::{within_bounds, Geometry, Mesh, Quad, Sphere};
 use crate::math::Vec2;
-use crate::scene::mesh_io::{drop_degenerate_grouped, read_mesh, MaterialGroups, MeshFile};
+use crate::scene::mesh_io::{
+    drop_degenerate_grouped, read_mesh, MaterialGroups, MeshError, MeshFile,
+};
 use crate::scene::obj_materials::obj_parts;
 use crate::scene::{SceneError, Shape, UvTransform};
 use glam::{DMat4, DVec3};
@@ -28,11 +30,17 @@ impl<'e> Builder<'e, '_> {
         // An OBJ file's own materials, used when the shape gives no BSDF.
         let mut own_materials = None;
         let geometry = match e.kind() {
-            "obj" | "ply" => {
-                let (mesh, path, groups) = self.mesh_file(&props, &m)?;
-                own_materials = (!groups.is_empty()).then_some((path, groups));
-                Geometry::Mesh(mesh)
-            }
+            "obj" | "ply" => match self.mesh_file(&props, &m)? {
+                Some((mesh, path, groups)) => {
+                    own_materials = (!groups.is_empty()).then_some((path, groups));
+                    Geometry::Mesh(mesh)
+                }
+                None => {
+                    props.objects("bsdf")?;
+                    props.objects("emitter")?;
+                    return props.finish(&mut self.problems);
+                }
+            },
             "rectangle" => rectangle(e, &m)?,
             "cube" => Geometry::Mesh(checked(e, cube(&m))?),
             "disk" => {
@@ -87,12 +95,13 @@ impl<'e> Builder<'e, '_> {
     }
 
     /// The mesh of an `obj` or `ply` shape placed by `m`, its path and the
-    /// material groups of its faces.
+    /// material groups of its faces; `None` when no triangle has any area
+    /// (the scene leaves it out, and says so once for all such meshes).
     fn mesh_file(
         &mut self,
         props: &Props,
         m: &DMat4,
-    ) -> Result<(Mesh, PathBuf, MaterialGroups), SceneError> {
+    ) -> Result<Option<(Mesh, PathBuf, MaterialGroups)>, SceneError> {
         let e = props.elem;
         let name = props
             .string("filename")?
@@ -102,16 +111,21 @@ impl<'e> Builder<'e, '_> {
             mut mesh,
             mut notes,
             mut groups,
-        } = read_mesh(&path).map_err(|err| e.loc.error(format!("`filename`: {err}")))?;
+        } = match read_mesh(&path) {
+            Ok(read) => read,
+            Err(MeshError::NoArea { .. }) => {
+                self.no_area.push(echo(name));
+                return Ok(None);
+            }
+            Err(err) => return Err(e.loc.error(format!("`filename`: {err}"))),
+        };
         if *m != DMat4::IDENTITY {
             mesh.transform(&m.as_mat4());
             let before = mesh.indices.len();
             let dropped = drop_degenerate_grouped(&mesh.positions, &mut mesh.indices, &mut groups);
             if mesh.indices.is_empty() {
-                return Err(e.loc.error(format!(
-                    "{}: the mesh has no triangle with area",
-                    echo(name)
-                )));
+                self.no_area.push(echo(name));
+                return Ok(None);
             }
             if dropped > 0 {
                 notes.push(format!(
@@ -133,7 +147,7 @@ impl<'e> Builder<'e, '_> {
                 .warn(&e.loc, format!("{}: {}", path.display(), notes.join("; ")))?;
         }
         mesh.positions.reserve_exact(1);
-        Ok((checked(e, mesh)?, path, groups))
+        Ok(Some((checked(e, mesh)?, path, groups)))
     }
 
     /// The pieces of an OBJ mesh cut by the materials of its own `.mtl`.

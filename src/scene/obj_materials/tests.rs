@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::bsdf::Bsdf;
+use crate::geometry::Geometry;
 use crate::scene::mesh_io::read_mesh;
 use crate::scene::{load_with, LoadOptions, Scene, SceneError};
 
@@ -282,4 +283,67 @@ fn a_mitsuba_obj_without_bsdf_takes_its_own() {
         .any(|w| w.contains("<bsdf> applies to every face")));
     let e = load(&dir, "s.xml", &xml, true).unwrap_err();
     assert!(e.message.contains("--strict"), "{e}");
+}
+
+/// Two files of degenerate triangles only, and a mesh its scale flattens.
+#[test]
+fn meshes_of_no_area_are_left_out_with_one_warning() {
+    let flat = "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\n";
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n";
+    let upright = "v 0 0 0\nv 1 0 1\nv 0 0 1\nf 1 2 3\n";
+    let good = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    let files: [(&str, &[u8]); 4] = [
+        ("flat.obj", flat.as_bytes()),
+        ("flat.ply", ply.as_bytes()),
+        ("upright.obj", upright.as_bytes()),
+        ("good.obj", good.as_bytes()),
+    ];
+    let dir = folder("no-area", &files);
+    let mesh = |file: &str| format!("[[shapes]]\ntype = \"mesh\"\nfile = \"{file}\"\n");
+    let squash = "scale = [1, 1e-30, 1e-30]\n";
+    let text = format!(
+        "{CAMERA}[[lights]]\ntype = \"point\"\nposition = [0, 0, 3]\nintensity = 1\n{}{}{}{squash}{}",
+        mesh("flat.obj"),
+        mesh("flat.ply"),
+        mesh("upright.obj"),
+        mesh("good.obj")
+    );
+    let s = load(&dir, "s.toml", &text, false).unwrap();
+    assert_eq!(s.shapes.len(), 1);
+    assert!(matches!(&s.shapes[0].geometry, Geometry::Mesh(m) if m.indices.len() == 1));
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    let w = &s.warnings[0];
+    assert!(
+        w.starts_with("left out 3 meshes with no triangle of any area"),
+        "{w}"
+    );
+    for name in ["flat.obj", "flat.ply", "upright.obj"] {
+        assert!(w.contains(name), "{w}");
+    }
+    // The same through Mitsuba XML, scaled by `to_world`.
+    let shape = |file: &str, inner: &str| {
+        format!(
+            "<shape type=\"{}\"><string name=\"filename\" value=\"{file}\"/>{inner}</shape>",
+            &file[file.len() - 3..]
+        )
+    };
+    let squash = "<transform name=\"to_world\"><scale value=\"1, 1e-30, 1e-30\"/></transform>";
+    let xml = format!(
+        "<scene version=\"3.0.0\"><sensor type=\"perspective\"/>{}{}{}{}\
+         <emitter type=\"point\"><point name=\"position\" value=\"0,0,3\"/></emitter></scene>",
+        shape("flat.obj", "<bsdf type=\"diffuse\"/>"),
+        shape("flat.ply", ""),
+        shape("upright.obj", squash),
+        shape("good.obj", "")
+    );
+    let s = load(&dir, "s.xml", &xml, false).unwrap();
+    assert_eq!(s.shapes.len(), 1);
+    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert!(
+        s.warnings[0].contains("left out 3 meshes"),
+        "{:?}",
+        s.warnings
+    );
 }
