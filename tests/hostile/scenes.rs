@@ -10,7 +10,8 @@ use std::io::Write;
 /// The minimal good scene of these tests: camera, one material `m`, no
 /// shapes (each case adds its own).
 const HEAD: &str = "[camera]\neye = [0, 0, 4]\ntarget = [0, 0, 0]\nresolution = [8, 8]\n\
-                    [render]\nspp = 1\n[materials.m]\nkd = 0.5\n";
+                    [render]\nspp = 1\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 4]\n\
+                    intensity = 1\n[materials.m]\nkd = 0.5\n";
 
 /// One triangle as an ascii PLY.
 fn tri_ply() -> String {

@@ -370,6 +370,9 @@ impl Ctx<'_> {
             render,
         );
         scene.warnings = warnings;
+        if !scene.has_light() {
+            scene.warnings.push(super::UNLIT_WARNING.into());
+        }
         Ok(scene)
     }
 }

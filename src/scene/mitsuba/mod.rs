@@ -78,6 +78,9 @@ pub fn load_str(text: &str, path: &Path, options: &LoadOptions) -> Result<Scene,
         b.environment,
         render,
     );
+    if !scene.has_light() {
+        b.problems.warn(&root.loc, super::UNLIT_WARNING)?;
+    }
     scene.files = reader.files;
     scene.files.extend(b.files);
     scene.warnings = b.problems.warnings;

@@ -5,7 +5,7 @@ use super::*;
 use crate::bsdf::Bsdf;
 use crate::geometry::Geometry;
 use crate::scene::mesh_io::read_mesh;
-use crate::scene::{load_with, LoadOptions, Scene, SceneError};
+use crate::scene::{load_with, LoadOptions, Scene, SceneError, UNLIT_WARNING};
 
 /// A fresh folder holding `files` (name, contents).
 fn folder(test: &str, files: &[(&str, &[u8])]) -> PathBuf {
@@ -214,7 +214,7 @@ fn a_toml_mesh_without_material_takes_its_own() {
     assert_eq!(s.shapes.len(), 7);
     let lamp = &s.shapes[3];
     assert_eq!(s.materials[lamp.material as usize].name, "lamp");
-    assert!(lamp.nee && s.lights.is_sampled(3));
+    assert!(lamp.nee && s.lights.is_sampled(3) && s.has_light());
     assert!(s.shapes.iter().filter(|s| s.nee).count() == 1);
     let wood = &s.materials[s.shapes[4].material as usize];
     assert!(matches!(
@@ -222,6 +222,11 @@ fn a_toml_mesh_without_material_takes_its_own() {
         Texture::Image { .. }
     ));
     assert!(s.files.contains(&dir.join("m.mtl")) && s.files.contains(&dir.join("tex/w.ppm")));
+    assert!(
+        !s.warnings.iter().any(|w| w.contains("no light")),
+        "{:?}",
+        s.warnings
+    );
     // Not sampled when asked so; a scene material wins for every face.
     let s = load(
         &dir,
@@ -230,16 +235,17 @@ fn a_toml_mesh_without_material_takes_its_own() {
         false,
     )
     .unwrap();
-    assert!(!s.shapes[3].nee && s.lights.is_empty());
+    assert!(!s.shapes[3].nee && s.lights.is_empty() && s.has_light());
     let grey = format!("{CAMERA}[materials.g]\nkd = 0.3\n{mesh}material = \"g\"\n");
     let s = load(&dir, "s.toml", &grey, false).unwrap();
     assert_eq!(s.shapes.len(), 1);
-    assert_eq!(s.warnings.len(), 1, "{:?}", s.warnings);
+    assert_eq!(s.warnings.len(), 2, "{:?}", s.warnings);
     assert!(
         s.warnings[0].contains("(`usemtl`, 6) are not used"),
         "{:?}",
         s.warnings
     );
+    assert_eq!(s.warnings[1], UNLIT_WARNING);
     let e = load(&dir, "s.toml", &grey, true).unwrap_err();
     assert!(e.message.contains("are not used"), "{e}");
 }
@@ -281,6 +287,11 @@ fn a_mitsuba_obj_without_bsdf_takes_its_own() {
         .warnings
         .iter()
         .any(|w| w.contains("<bsdf> applies to every face")));
+    assert!(
+        s.warnings.last().unwrap().ends_with(UNLIT_WARNING),
+        "{:?}",
+        s.warnings
+    );
     let e = load(&dir, "s.xml", &xml, true).unwrap_err();
     assert!(e.message.contains("--strict"), "{e}");
 }
@@ -346,4 +357,26 @@ fn meshes_of_no_area_are_left_out_with_one_warning() {
         "{:?}",
         s.warnings
     );
+}
+
+#[test]
+fn a_scene_without_light_is_warned_about() {
+    let dir = folder("unlit", &[]);
+    let sphere = "[[shapes]]\ntype = \"sphere\"\ncenter = [0, 0, 0]\nradius = 1\n";
+    let s = load(&dir, "s.toml", &format!("{CAMERA}{sphere}"), false).unwrap();
+    assert_eq!(s.warnings, [UNLIT_WARNING]);
+    let lights = [
+        "[[lights]]\ntype = \"point\"\nposition = [0, 0, 3]\nintensity = 1\n",
+        "[environment]\nradiance = 0.5\n",
+        "[materials.l]\nemission = 1\n[[shapes]]\ntype = \"sphere\"\ncenter = [0, 3, 0]\nradius = 1\nmaterial = \"l\"\n",
+    ];
+    for light in lights {
+        let s = load(&dir, "s.toml", &format!("{CAMERA}{sphere}{light}"), false).unwrap();
+        assert!(s.warnings.is_empty(), "{light}: {:?}", s.warnings);
+    }
+    // Lights that emit nothing are no light.
+    let dark = "[[lights]]\ntype = \"point\"\nposition = [0, 0, 3]\nintensity = 0\n\
+                [environment]\nradiance = 0\n";
+    let s = load(&dir, "s.toml", &format!("{CAMERA}{sphere}{dark}"), false).unwrap();
+    assert_eq!(s.warnings, [UNLIT_WARNING]);
 }
