@@ -27,6 +27,10 @@ fn load(test: &str, files: &[(&str, &str)], options: &LoadOptions) -> Result<Sce
     load_with(&dir.join(files[0].0), options)
 }
 
+/// A light, so that scenes meant to load without warnings earn none for
+/// rendering black.
+const LIGHT: &str = r#"<emitter type="point"><point name="position" value="0,0,3"/></emitter>"#;
+
 fn scene(body: &str) -> String {
     format!("<scene version=\"3.0.0\">\n{SENSOR}\n{body}\n</scene>\n")
 }
@@ -175,7 +179,8 @@ fn sensor_fov_axis_film_and_integrator() {
         <string name="fov_axis" value="x"/>
         <film type="hdrfilm"><integer name="width" value="200"/><integer name="height" value="100"/>
         <rfilter type="box"/></film></sensor></scene>"#;
-    let s = load("sensor", &[("s.xml", text)], &LoadOptions::default()).unwrap();
+    let text = text.replace("</scene>", &format!("{LIGHT}</scene>"));
+    let s = load("sensor", &[("s.xml", &text)], &LoadOptions::default()).unwrap();
     let expect = 2.0 * 0.5f32.atan().to_degrees();
     assert!((s.camera.fov_y - expect).abs() < 1e-4, "{}", s.camera.fov_y);
     assert_eq!((s.camera.width, s.camera.height), (200, 100));
@@ -203,7 +208,8 @@ fn old_files_are_upgraded() {
       <shape type="sphere"><bsdf type="dielectric"><float name="intIOR" value="1.33"/>
         <float name="extIOR" value="1.0"/></bsdf></shape>
     </scene>"#;
-    let s = load("upgrade", &[("s.xml", text)], &LoadOptions::default()).unwrap();
+    let text = text.replace("</scene>", &format!("{LIGHT}</scene>"));
+    let s = load("upgrade", &[("s.xml", &text)], &LoadOptions::default()).unwrap();
     assert_eq!((s.render.max_depth, s.render.spp), (3, 7));
     assert!(close(s.camera.eye, Vec3::new(0.0, 0.0, 5.0)));
     assert!((s.camera.fov_y - 40.0).abs() < 1e-4);
@@ -416,7 +422,7 @@ fn conductors_and_rough_plastic_become_luz_models() {
           <float name="int_ior" value="2"/><float name="alpha" value="0.05"/></bsdf></shape>
         <shape type="sphere"><bsdf type="roughconductor">
           <float name="alpha_u" value="0.1"/><float name="alpha_v" value="0.4"/></bsdf></shape>"#;
-    let s = ok("models", body);
+    let s = ok("models", &format!("{body}{LIGHT}"));
     let model = |i: usize| s.material_of(i as u32).bsdf.clone().expect("a model");
     let Bsdf::Conductor(gold) = model(0) else {
         panic!("{:?}", model(0))
@@ -511,7 +517,7 @@ fn rough_and_thin_dielectrics_become_luz_models() {
           <string name="int_ior" value="diamond"/><float name="alpha" value="0.3"/></bsdf></shape>
         <shape type="sphere"><bsdf type="thindielectric">
           <float name="int_ior" value="1.5"/><float name="ext_ior" value="1"/></bsdf></shape>"#;
-    let s = ok("dielectrics", body);
+    let s = ok("dielectrics", &format!("{body}{LIGHT}"));
     let model = |i: u32| s.material_of(i).bsdf.clone().expect("a model");
     let Bsdf::RoughDielectric(rough) = model(0) else {
         panic!("{:?}", model(0))
@@ -563,6 +569,7 @@ fn a_mask_keeps_its_nested_bsdf_and_gains_an_opacity() {
         <bsdf type="mask" id="default"><bsdf type="roughplastic"/></bsdf>
         <bsdf type="mask" id="textured">
             <texture name="opacity" type="checkerboard"/><bsdf type="diffuse"/></bsdf>
+        <emitter type="constant"/>
         <shape type="sphere"><ref id="constant"/></shape>
         <shape type="sphere"><ref id="default"/></shape>
         <shape type="rectangle"><ref id="textured"/></shape>
@@ -645,14 +652,23 @@ fn textures_stand_the_way_mitsuba_stands_them() {
             r#"<shape type="obj"><string name="filename" value="q.obj"/>"#,
             false,
         ),
+        // The same quad with its image from its own .mtl (`map_Kd`).
+        (
+            r#"<shape type="obj"><string name="filename" value="qm.obj"/>"#,
+            false,
+        ),
     ] {
+        let bsdf = if shape.contains("qm.obj") { "" } else { bsdf };
         let xml = scene(&format!("{sky}{shape}{bsdf}</shape>"));
-        let s = load(
-            "stand",
-            &[("s.xml", &xml), ("t.ppm", ppm), ("q.obj", obj)],
-            &LoadOptions::default(),
-        )
-        .unwrap();
+        let with_mtl = format!("mtllib q.mtl\nusemtl t\n{obj}");
+        let files = [
+            ("s.xml", xml.as_str()),
+            ("t.ppm", ppm),
+            ("q.obj", obj),
+            ("qm.obj", &with_mtl),
+            ("q.mtl", "newmtl t\nKd 1 1 1\nmap_Kd t.ppm\n"),
+        ];
+        let s = load("stand", &files, &LoadOptions::default()).unwrap();
         let img = image(&s, 4);
         let (top, bottom) = (img.pixels[0], img.pixels[img.pixels.len() - 1]);
         let (red, blue) = if red_at_bottom {

@@ -8,6 +8,7 @@ pub mod load;
 pub mod material;
 pub mod mesh_io;
 pub mod mitsuba;
+mod obj_materials;
 pub mod texture;
 
 pub use camera::{Camera, FovAxis};
@@ -89,6 +90,25 @@ pub struct Scene {
     shading: Vec<Shading>,
 }
 
+/// The warning of a scene without light ([`Scene::has_light`]).
+pub(crate) const UNLIT_WARNING: &str =
+    "the scene has no light (no emissive shape, point light or environment): it renders black";
+
+/// The one warning of a scene on the mesh files it left out, each with no
+/// triangle of any area (all degenerate), named by `files`.
+pub(crate) fn no_area_warning(files: &[String]) -> String {
+    let n = files.len();
+    let plural = if n == 1 { "" } else { "es" };
+    let shown = files.iter().take(8).cloned().collect::<Vec<_>>().join(", ");
+    let more = match n.saturating_sub(8) {
+        0 => String::new(),
+        k => format!(" and {k} more"),
+    };
+    format!(
+        "left out {n} mesh{plural} with no triangle of any area (all degenerate): {shown}{more}"
+    )
+}
+
 /// Samples the emitters of the shapes that ask for NEE.
 fn light_sampler(shapes: &[Shape], materials: &[Material]) -> LightSampler {
     LightSampler::new(shapes, |s| materials[s.material as usize].emission)
@@ -148,6 +168,24 @@ impl Scene {
             None,
             RenderSettings::default(),
         )
+    }
+
+    /// Whether anything emits light: an emissive shape, a point light of
+    /// some intensity, or an environment. Without, every pixel is black.
+    pub fn has_light(&self) -> bool {
+        let emits = |s: &Shape| self.materials[s.material as usize].is_emissive();
+        self.shapes.iter().any(emits)
+            || self
+                .point_lights
+                .iter()
+                .any(|l| l.intensity.max_element() > 0.0)
+            || match &self.environment {
+                Some(Environment::Constant(c)) => c.max_element() > 0.0,
+                Some(Environment::Map(m)) => {
+                    m.scale > 0.0 && m.texels.iter().any(|t| t.max_element() > 0.0)
+                }
+                None => false,
+            }
     }
 
     /// The full surface point of a backend's preliminary hit.

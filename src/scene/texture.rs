@@ -40,6 +40,28 @@ impl UvTransform {
 }
 
 impl Texture {
+    /// The image with its rows in the opposite order (a checker as it is):
+    /// Mitsuba's images have v = 0 on their top row, luz's on the bottom.
+    pub fn upside_down(self) -> Texture {
+        match self {
+            Texture::Image {
+                width,
+                height,
+                texels,
+            } => Texture::Image {
+                width,
+                height,
+                texels: texels
+                    .chunks_exact(width as usize)
+                    .rev()
+                    .flatten()
+                    .copied()
+                    .collect(),
+            },
+            checker => checker,
+        }
+    }
+
     #[inline]
     pub fn eval(&self, uv: Vec2) -> Rgb {
         let u = uv.x - uv.x.floor();

@@ -32,6 +32,9 @@ fn luz_limited(args: &[&str]) -> Output {
 
 /// A scene with one shape: a mesh file when `mesh` is given (else a sphere),
 /// textured with `texture.ppm` when `texture` is set.
+/// A light, so that the test scenes earn no warning for rendering black.
+const LIGHT: &str = "[[lights]]\ntype = \"point\"\nposition = [0, 0, 4]\nintensity = 1\n";
+
 fn scene(mesh: Option<&str>, texture: bool) -> String {
     let shape = match mesh {
         Some(file) => format!("type = \"mesh\"\nfile = \"{file}\""),
@@ -48,7 +51,7 @@ fn scene(mesh: Option<&str>, texture: bool) -> String {
     format!(
         "[camera]\neye = [0, 0, 4]\ntarget = [0, 0, 0]\nresolution = [8, 8]\n\
          [render]\nspp = 1\n{tex_table}[materials.m]\nkd = 0.5\n{tex_ref}\
-         [[shapes]]\n{shape}\nmaterial = \"m\"\n"
+         [[shapes]]\n{shape}\nmaterial = \"m\"\n{LIGHT}"
     )
 }
 

@@ -10,7 +10,8 @@ use std::io::Write;
 /// The minimal good scene of these tests: camera, one material `m`, no
 /// shapes (each case adds its own).
 const HEAD: &str = "[camera]\neye = [0, 0, 4]\ntarget = [0, 0, 0]\nresolution = [8, 8]\n\
-                    [render]\nspp = 1\n[materials.m]\nkd = 0.5\n";
+                    [render]\nspp = 1\n[[lights]]\ntype = \"point\"\nposition = [0, 0, 4]\n\
+                    intensity = 1\n[materials.m]\nkd = 0.5\n";
 
 /// One triangle as an ascii PLY.
 fn tri_ply() -> String {
@@ -320,6 +321,35 @@ fn unused_mesh_data_earns_one_warning() {
         &[("tri.ply", tri_ply().as_bytes())],
     );
     assert!(!stderr.contains("warning"), "{stderr}");
+}
+
+/// Meshes whose triangles are all degenerate are left out, the render goes
+/// on, and one warning names them all.
+#[test]
+fn meshes_of_no_area_earn_one_warning() {
+    let dir = temp_dir("no-area");
+    let mesh =
+        |file: &str| format!("[[shapes]]\ntype = \"mesh\"\nfile = \"{file}\"\nmaterial = \"m\"\n");
+    let scene = format!(
+        "{HEAD}{}{}{}",
+        mesh("a.ply"),
+        mesh("b.obj"),
+        mesh("tri.ply")
+    );
+    let flat_ply = format!("{PLY_HEADER}0 0 0\n1 1 1\n2 2 2\n3 0 1 2\n");
+    let flat_obj = "v 0 0 0\nv 1 1 1\nv 2 2 2\nf 1 2 3\nf 3 2 1\n";
+    let tri = tri_ply();
+    let files: [(&str, &[u8]); 3] = [
+        ("a.ply", flat_ply.as_bytes()),
+        ("b.obj", flat_obj.as_bytes()),
+        ("tri.ply", tri.as_bytes()),
+    ];
+    let stderr = render_ok(&dir, "no-area", &scene, &files);
+    let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
+    assert_eq!(warnings.len(), 1, "{stderr}");
+    for needle in ["left out 2 meshes", "a.ply", "b.obj", "degenerate"] {
+        assert!(warnings[0].contains(needle), "no {needle}: {}", warnings[0]);
+    }
 }
 
 /// A 2 MB `.ply.gz` whose header declares three vertices and one face,

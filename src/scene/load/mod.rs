@@ -18,18 +18,22 @@ use std::collections::BTreeMap;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 
+mod assign;
 mod camera;
 mod desc;
 mod environment;
 mod lights;
 mod materials;
+mod mesh;
 mod messages;
 mod models;
 mod shapes;
 #[cfg(test)]
 mod tests;
 
+use assign::Palette;
 use desc::*;
+use mesh::Built;
 use messages::*;
 use shapes::uv_extent;
 
@@ -315,105 +319,16 @@ impl Ctx<'_> {
             material_ids.insert(name.clone(), materials.len() as u32);
             materials.push(self.material(name, m, &texture_ids)?);
         }
-        let mut default_material = None;
-
-        let mut shapes = Vec::new();
         let mut warnings = Vec::new();
-        for s in &desc.shapes {
-            let span = s.span();
-            let sd = s.get_ref();
-            let geometry = self.geometry(&span, sd, &mut warnings)?;
-            let material = match &sd.material {
-                Some(name) => *material_ids.get(name).ok_or_else(|| {
-                    let known: Vec<&str> = material_ids.keys().map(|k| k.as_str()).collect();
-                    self.field_error(
-                        &span,
-                        "material",
-                        format!(
-                            "no material named {} (defined: {})",
-                            echo(name),
-                            known.join(", ")
-                        ),
-                    )
-                })?,
-                None => *default_material.get_or_insert_with(|| {
-                    materials.push(Material {
-                        name: "(default)".into(),
-                        ..Material::default()
-                    });
-                    materials.len() as u32 - 1
-                }),
-            };
-            let mut shape = Shape::new(geometry, material);
-            shape.nee = sd.nee.unwrap_or(false);
-            if shape.nee && !materials[material as usize].is_emissive() {
-                return Err(self.field_error(
-                    &span,
-                    "nee",
-                    "only emissive shapes can be sampled as lights",
-                ));
-            }
-            if shape.nee && matches!(shape.geometry, Geometry::Plane(_)) {
-                return Err(self.field_error(
-                    &span,
-                    "nee",
-                    "an infinite plane has no area to sample",
-                ));
-            }
-            if shape.nee {
-                let power = materials[material as usize].emission.max_element()
-                    * shape.geometry.area().unwrap_or(0.0);
-                if !power.is_finite() {
-                    return Err(self.field_error(
-                        &span,
-                        "nee",
-                        format!(
-                            "the emitted power (`emission` {} of material {} times the area) overflows f32",
-                            vec3(materials[material as usize].emission),
-                            echo(&materials[material as usize].name)
-                        ),
-                    ));
-                }
-            }
-            for (field, v) in [
-                ("texture_scale", sd.texture_scale),
-                ("texture_offset", sd.texture_offset),
-            ] {
-                if let Some(v) = v {
-                    if !Vec2::from(v).is_finite() {
-                        return Err(self.field_error(&span, field, "must be finite"));
-                    }
-                }
-            }
-            shape.uv_transform = UvTransform {
-                scale: sd.texture_scale.map_or(Vec2::ONE, Vec2::from),
-                offset: sd.texture_offset.map_or(Vec2::ZERO, Vec2::from),
-            };
-            // The texture coordinates the transform makes of the shape's
-            // own (at most `uv_extent` in magnitude) must stay finite.
-            let extent = uv_extent(&shape.geometry);
-            let t = shape.uv_transform;
-            if !(t.scale.abs() * extent).is_finite() {
-                return Err(self.field_error(
-                    &span,
-                    "texture_scale",
-                    format!("scales this shape's texture coordinates (up to {extent:e}) past f32's range"),
-                ));
-            }
-            if !(t.scale.abs() * extent + t.offset.abs()).is_finite() {
-                let field = if sd.texture_offset.is_some() {
-                    "texture_offset"
-                } else {
-                    "texture_scale"
-                };
-                return Err(self.field_error(
-                    &span,
-                    field,
-                    "moves this shape's texture coordinates past f32's range",
-                ));
-            }
-            shapes.push(shape);
-        }
+        let shapes = self.shapes(
+            &desc.shapes,
+            Palette {
+                materials: &mut materials,
+                material_ids: &material_ids,
+                textures: &mut textures,
+            },
+            &mut warnings,
+        )?;
 
         let mut point_lights = Vec::new();
         for l in &desc.lights {
@@ -435,6 +350,9 @@ impl Ctx<'_> {
             render,
         );
         scene.warnings = warnings;
+        if !scene.has_light() {
+            scene.warnings.push(super::UNLIT_WARNING.into());
+        }
         Ok(scene)
     }
 }

@@ -9,7 +9,7 @@ impl Ctx<'_> {
         span: &Range<usize>,
         sd: &ShapeDesc,
         warnings: &mut Vec<String>,
-    ) -> Result<Geometry, SceneError> {
+    ) -> Result<Built, SceneError> {
         let used: &[&str] = match sd.kind.as_str() {
             "sphere" => &["center", "radius"],
             "plane" => &["point", "normal"],
@@ -58,7 +58,7 @@ impl Ctx<'_> {
         }
         let need =
             |field: &str| self.error_at(span.start, format!("a {} needs `{field}`", sd.kind));
-        Ok(match sd.kind.as_str() {
+        Ok(Built::Geometry(match sd.kind.as_str() {
             "sphere" => {
                 let center =
                     self.point3(span, "center", sd.center.ok_or_else(|| need("center"))?)?;
@@ -181,84 +181,9 @@ impl Ctx<'_> {
                     normals: None,
                 })
             }
-            "mesh" => {
-                let file = sd.file.as_ref().ok_or_else(|| need("file"))?;
-                let path = self.resolve_file(span, file)?;
-                let (mut mesh, mut notes) = crate::scene::mesh_io::read_mesh(&path)
-                    .map_err(|e| self.field_error(span, "file", e.to_string()))?;
-                let scale = match sd.scale {
-                    None => Vec3::ONE,
-                    Some(Scale::Uniform(s)) => Vec3::splat(s),
-                    Some(Scale::PerAxis(s)) => Vec3::from(s),
-                };
-                if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
-                    return Err(self.field_error(span, "scale", "must be finite and non-zero"));
-                }
-                let r = self.finite3(span, "rotate", sd.rotate.unwrap_or([0.0; 3]))?;
-                let t = self.point3(span, "translate", sd.translate.unwrap_or([0.0; 3]))?;
-                let rotation = Quat::from_rotation_z(r.z.to_radians())
-                    * Quat::from_rotation_y(r.y.to_radians())
-                    * Quat::from_rotation_x(r.x.to_radians());
-                let transformed =
-                    sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some();
-                if transformed {
-                    mesh.transform(&Mat4::from_scale_rotation_translation(scale, rotation, t));
-                }
-                // Every vertex where it lands in the world, the file's own
-                // or transformed, within the coordinates luz can intersect.
-                {
-                    use rayon::prelude::*;
-                    if let Some((i, p)) = mesh
-                        .positions
-                        .par_iter()
-                        .enumerate()
-                        .find_first(|(_, p)| !within_bounds(**p))
-                    {
-                        let field = ["scale", "translate", "rotate"]
-                            .into_iter()
-                            .zip([
-                                sd.scale.is_some(),
-                                sd.translate.is_some(),
-                                sd.rotate.is_some(),
-                            ])
-                            .find_map(|(f, given)| given.then_some(f))
-                            .unwrap_or("file");
-                        let how = if transformed { " once transformed" } else { "" };
-                        return Err(self.field_error(
-                            span,
-                            field,
-                            format!("vertex {i} of the mesh{how}: {}", outside(*p)),
-                        ));
-                    }
-                }
-                if transformed {
-                    // A very uneven scale can flatten triangles to lines.
-                    let before = mesh.indices.len();
-                    let dropped =
-                        crate::scene::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
-                    if mesh.indices.is_empty() {
-                        return Err(self.field_error(
-                            span,
-                            "scale",
-                            "every triangle of the mesh is degenerate once transformed",
-                        ));
-                    }
-                    if dropped > 0 {
-                        notes.push(format!(
-                            "dropped {dropped} of {before} triangles, degenerate once transformed"
-                        ));
-                    }
-                }
-                if !notes.is_empty() {
-                    warnings.push(format!("{}: {}", path.display(), notes.join("; ")));
-                }
-                // Spare room after the last vertex lets Embree read luz's
-                // own array instead of copying it (its loads are 16 bytes).
-                mesh.positions.reserve_exact(1);
-                Geometry::Mesh(mesh)
-            }
+            "mesh" => return self.mesh(span, sd, warnings),
             _ => unreachable!("shape kinds are checked above"),
-        })
+        }))
     }
 }
 

@@ -2,6 +2,7 @@
 //! degenerate triangles dropped, at least one face left) and the notes on
 //! what of a file luz did not use.
 
+use super::groups::MaterialGroups;
 use crate::math::{Vec2, Vec3};
 
 pub(super) fn check_finite(p: Vec3, uv: Option<Vec2>, vertex: usize) -> Result<(), String> {
@@ -118,6 +119,15 @@ fn any_degenerate(positions: &[Vec3], block: &[[u32; 3]]) -> bool {
 /// are marked in parallel and the marks drive one serial compaction.
 /// Returns how many it dropped.
 pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) -> usize {
+    drop_degenerate_grouped(positions, indices, &mut MaterialGroups::default())
+}
+
+/// [`drop_degenerate`], keeping the material runs of an OBJ mesh in step.
+pub(crate) fn drop_degenerate_grouped(
+    positions: &[Vec3],
+    indices: &mut Vec<[u32; 3]>,
+    groups: &mut MaterialGroups,
+) -> usize {
     use rayon::prelude::*;
     const BLOCK: usize = 1 << 13;
     if !indices
@@ -134,6 +144,7 @@ pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) -
     let before = indices.len();
     let mut marks = drop.iter();
     indices.retain(|_| !marks.next().copied().unwrap_or(false));
+    groups.drop_triangles(&drop);
     before - indices.len()
 }
 

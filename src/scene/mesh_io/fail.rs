@@ -1,6 +1,7 @@
 //! Parse failures before the path is attached, with their place in the file,
 //! and the shortening of names and tokens quoted in their messages.
 
+use super::checks::no_faces;
 use super::MeshError;
 use crate::echo::echo;
 use std::path::Path;
@@ -19,6 +20,8 @@ enum Loc {
 pub(super) struct Fail {
     at: Option<Loc>,
     pub(super) msg: String,
+    /// Every triangle of the file is degenerate ([`MeshError::NoArea`]).
+    no_area: bool,
 }
 
 impl Fail {
@@ -26,6 +29,12 @@ impl Fail {
         let path = path.to_path_buf();
         let msg = self.msg;
         match self.at {
+            Some(Loc::Text(line, column)) if self.no_area => MeshError::NoArea {
+                path,
+                line,
+                column,
+                msg,
+            },
             Some(Loc::Text(line, column)) => MeshError::AtLine {
                 path,
                 line,
@@ -43,6 +52,7 @@ pub(super) fn fail(msg: impl Into<String>) -> Fail {
     Fail {
         at: None,
         msg: msg.into(),
+        no_area: false,
     }
 }
 
@@ -50,6 +60,16 @@ pub(super) fn fail_at(line: usize, column: usize, msg: impl Into<String>) -> Fai
     Fail {
         at: Some(Loc::Text(line, column)),
         msg: msg.into(),
+        no_area: false,
+    }
+}
+
+/// The failure of a file whose `triangles` triangles are all degenerate,
+/// or that has none, at the line where faces were expected.
+pub(super) fn no_triangles(line: usize, column: usize, triangles: usize) -> Fail {
+    Fail {
+        no_area: triangles > 0,
+        ..fail_at(line, column, no_faces(triangles))
     }
 }
 
@@ -57,6 +77,7 @@ pub(super) fn fail_byte(offset: usize, msg: impl Into<String>) -> Fail {
     Fail {
         at: Some(Loc::Byte(offset)),
         msg: msg.into(),
+        no_area: false,
     }
 }
 

@@ -1,5 +1,7 @@
 //! Triangle-mesh files: PLY (ascii, binary little/big endian, optionally
-//! gzipped) through a hand-written parser, and Wavefront OBJ through `tobj`.
+//! gzipped) through a hand-written parser, and Wavefront OBJ through `tobj`,
+//! with the materials its faces ask for (`usemtl`, [`MaterialGroups`]) and
+//! the MTL libraries that define them ([`read_mtl`]).
 //!
 //! The PLY parser reads the whole (decompressed) file into memory and walks it
 //! once. On the ascii Stanford bunny it takes about 6 ms where `ply-rs-bw`
@@ -21,15 +23,20 @@
 mod checks;
 mod chunks;
 mod fail;
+mod groups;
 mod gzip;
+mod mtl;
 mod obj;
 mod obj_chunks;
+mod obj_merge;
 mod obj_scan;
 mod ply;
 #[cfg(test)]
 mod test_support;
 
-pub(crate) use checks::{drop_degenerate, is_degenerate};
+pub(crate) use checks::{drop_degenerate_grouped, is_degenerate};
+pub use groups::{MaterialGroups, Named};
+pub use mtl::{read_mtl, MtlLibrary, MtlMaterial};
 
 use crate::geometry::Mesh;
 use crate::meter::{unmetered, Step, StepKind};
@@ -62,18 +69,36 @@ pub enum MeshError {
     },
     #[error("{}: {msg}", .path.display())]
     Invalid { path: PathBuf, msg: String },
+    /// Every triangle of the file is degenerate: nothing to render, which
+    /// scenes skip rather than refuse.
+    #[error("{}:{line}:{column}: {msg}", .path.display())]
+    NoArea {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        msg: String,
+    },
+}
+
+/// A mesh file as read: the mesh, the notes on what of the file luz did
+/// not use (data it does not read, triangles it dropped, and why; empty for
+/// a file read whole), and the materials an OBJ file's faces ask for.
+#[derive(Debug, Default)]
+pub struct MeshFile {
+    pub mesh: Mesh,
+    pub notes: Vec<String>,
+    pub groups: MaterialGroups,
 }
 
 /// Loads a `.ply`, `.ply.gz`, `.obj` or `.obj.gz` file (gzip is recognised by
 /// its magic bytes, whatever the name).
 pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
-    read_mesh(path).map(|(mesh, _)| mesh)
+    read_mesh(path).map(|read| read.mesh)
 }
 
-/// [`load_mesh`], with the notes on what of the file luz did not use (data
-/// it does not read, triangles it dropped, and why): empty for a file read
-/// whole. The path must be a regular file.
-pub fn read_mesh(path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
+/// [`load_mesh`], with the notes and material groups of [`MeshFile`]. The
+/// path must be a regular file.
+pub fn read_mesh(path: &Path) -> Result<MeshFile, MeshError> {
     let size = std::fs::metadata(path).map_or(0, |m| m.len());
     let _step = Step::begin(StepKind::ReadMesh { file: path }, size);
     let data = crate::location::map_regular_file(path).map_err(|source| MeshError::Io {
@@ -86,19 +111,25 @@ pub fn read_mesh(path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
 /// Parses the contents of a mesh file; `path` picks the format by its
 /// extension, as in [`load_mesh`], and names the file in errors.
 pub fn parse_mesh(data: &[u8], path: &Path) -> Result<Mesh, MeshError> {
-    parse_mesh_noted(data, path).map(|(mesh, _)| mesh)
+    parse_mesh_noted(data, path).map(|read| read.mesh)
 }
 
-/// [`parse_mesh`] with the notes of [`read_mesh`].
-pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<(Mesh, Vec<String>), MeshError> {
+/// [`parse_mesh`] with the notes and groups of [`read_mesh`].
+pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<MeshFile, MeshError> {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default();
     let name = name.strip_suffix(".gz").unwrap_or(&name);
     let is_ply = name.ends_with(".ply");
-    let parse: fn(&[u8]) -> Result<Noted, Fail> = if is_ply {
-        ply::parse_ply
+    let parse: fn(&[u8]) -> Result<MeshFile, Fail> = if is_ply {
+        |data| {
+            ply::parse_ply(data).map(|(mesh, notes)| MeshFile {
+                mesh,
+                notes,
+                groups: MaterialGroups::default(),
+            })
+        }
     } else if name.ends_with(".obj") {
         obj::parse_obj
     } else {
@@ -115,7 +146,7 @@ pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<(Mesh, Vec<String>),
     unmetered(|| parse(&inflated)).map_err(|f| f.at(path))
 }
 
-/// A mesh with the notes on what of its file luz did not use.
+/// A PLY mesh with the notes on what of its file luz did not use.
 type Noted = (Mesh, Vec<String>);
 
 #[cfg(test)]

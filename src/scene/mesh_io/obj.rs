@@ -1,12 +1,12 @@
 //! Wavefront OBJ through `tobj`, its objects merged into one mesh, with
 //! the errors `tobj` reports without a line located by [`scan_obj`].
 
-use super::checks::{check_finite, drop_degenerate, dropped_note, no_faces, summarize};
+use super::checks::{check_finite, drop_degenerate_grouped, dropped_note, summarize};
 use super::chunks::CHUNK_BYTES;
-use super::fail::{fail, fail_at, Fail};
+use super::fail::{fail, fail_at, no_triangles, Fail};
 use super::obj_chunks::parse_obj_chunks;
-use super::obj_scan::scan_obj;
-use super::Noted;
+use super::obj_scan::{scan_obj, Seen};
+use super::MeshFile;
 use crate::echo::echo;
 use crate::geometry::Mesh;
 use crate::location::line_column;
@@ -14,7 +14,7 @@ use crate::math::{Vec2, Vec3};
 
 /// Reads an OBJ file: in parallel chunks ([`parse_obj_chunks`]) when its
 /// statements allow, else serially.
-pub(super) fn parse_obj(data: &[u8]) -> Result<Noted, Fail> {
+pub(super) fn parse_obj(data: &[u8]) -> Result<MeshFile, Fail> {
     match parse_obj_chunks(data, CHUNK_BYTES) {
         Some(noted) => Ok(noted),
         None => parse_obj_serial(data),
@@ -22,15 +22,15 @@ pub(super) fn parse_obj(data: &[u8]) -> Result<Noted, Fail> {
 }
 
 /// Reads an OBJ file through [`scan_obj`] and `tobj`, serially.
-fn parse_obj_serial(data: &[u8]) -> Result<Noted, Fail> {
+fn parse_obj_serial(data: &[u8]) -> Result<MeshFile, Fail> {
     let text = std::str::from_utf8(data).map_err(|e| {
         let (line, column) = line_column(data, e.valid_up_to());
         fail_at(line, column, "the file is not UTF-8 text")
     })?;
     // tobj drops faces of two vertices and reports bad indices without a
     // line: one linear pass over the statements first, numbers unparsed.
-    let mut unused = Vec::new();
-    if let Some(f) = scan_obj(text, false, &mut unused) {
+    let mut seen = Seen::default();
+    if let Some(f) = scan_obj(text, false, &mut seen) {
         return Err(f);
     }
     // Single index, fan-triangulated, points and lines dropped.
@@ -48,18 +48,22 @@ fn parse_obj_serial(data: &[u8]) -> Result<Noted, Fail> {
     let mut mesh = merge(text, &models, with_uv)?;
     check_all_finite(text, &mesh)?;
     let triangles = mesh.indices.len();
-    let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
+    // The scan counts the faces `tobj` triangulates, one by one.
+    debug_assert_eq!(triangles, seen.triangles);
+    let mut groups = seen.groups.finish(triangles);
+    let dropped = drop_degenerate_grouped(&mesh.positions, &mut mesh.indices, &mut groups);
     if mesh.indices.is_empty() {
         // tobj drops malformed faces silently: name the first one if any,
         // else point at the end of the file, where faces were still expected.
         let (line, column) = line_column(text.as_bytes(), text.len());
-        let at_end = fail_at(line, column, no_faces(triangles));
+        let at_end = no_triangles(line, column, triangles);
         return Err(match triangles {
-            0 => scan_obj(text, true, &mut Vec::new()).unwrap_or(at_end),
+            0 => scan_obj(text, true, &mut Seen::default()).unwrap_or(at_end),
             _ => at_end,
         });
     }
     let mut notes = Vec::new();
+    let unused = seen.unused;
     if !unused.is_empty() {
         let items: Vec<String> = unused
             .iter()
@@ -73,13 +77,17 @@ fn parse_obj_serial(data: &[u8]) -> Result<Noted, Fail> {
     if dropped > 0 {
         notes.push(dropped_note(dropped, triangles));
     }
-    Ok((mesh, notes))
+    Ok(MeshFile {
+        mesh,
+        notes,
+        groups,
+    })
 }
 
 /// The failure at the first malformed statement of `text` that
 /// [`scan_obj`] finds with its numbers parsed, or `otherwise`'s when none.
 fn located(text: &str, otherwise: impl FnOnce() -> Fail) -> Fail {
-    scan_obj(text, true, &mut Vec::new()).unwrap_or_else(otherwise)
+    scan_obj(text, true, &mut Seen::default()).unwrap_or_else(otherwise)
 }
 
 /// One mesh of `tobj`'s models, each indexing its own vertices, with
@@ -177,6 +185,9 @@ mod tests {
              f 1//1 2//1 3//2\nf 1/1/1 2//2 3/1/1\ng\nf 1 2 3\nf 1//1 2//1 3//1\n",
             "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 2 0\nf 1 2 3\nf 1 2 4\nf 1 3 4\n",
             "g x\ng y\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\no\nf 3 2 1\no z\n",
+            MATERIALS,
+            "mtllib  a b.mtl \r\nv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nusemtl x\r\nf 1 2 3\r\n\
+             usemtl y\r\nusemtl x\r\nf 1 2 3\r\nusemtl  z z \r\nf 1 1 2\r\nf 3 2 1\r\nusemtl y",
         ];
         for t in decided {
             assert!(same_as_serial(t.as_bytes()), "{t:?}");
@@ -232,6 +243,54 @@ mod tests {
                 assert_eq!(format!("{:?}", Ok::<_, String>(got)), want, "{file}");
             }
         }
+    }
+
+    /// Groups, materials switched within and across them, a material used
+    /// twice, a degenerate face, relative indices.
+    const MATERIALS: &str = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\n\
+        f 1 2 3\ng one\nusemtl red\nf -4 -3 -2 -1\nusemtl blue\nf 1 2 2\nf 1 3 4\n\
+        g two\nv 0 0 1\nv 1 0 1\nv 0 1 1\nusemtl red\nf -3 -2 -1\n";
+
+    #[test]
+    fn usemtl_groups_with_relative_indices() {
+        let path = std::path::Path::new("m.obj");
+        let read = crate::scene::mesh_io::parse_mesh_noted(MATERIALS.as_bytes(), path).unwrap();
+        let g = &read.groups;
+        let names: Vec<(&str, usize)> = g.names.iter().map(|n| (&*n.name, n.line)).collect();
+        assert_eq!(names, [("red", 8), ("blue", 10)]);
+        assert_eq!((&*g.libraries[0].name, g.libraries[0].line), ("m.mtl", 1));
+        assert!(
+            read.notes.iter().any(|n| n.contains("dropped 1 of 6")),
+            "{:?}",
+            read.notes
+        );
+        let parts = g.split(read.mesh);
+        let ids: Vec<Option<u32>> = parts.iter().map(|p| p.0).collect();
+        assert_eq!(ids, [None, Some(0), Some(1)]);
+        let corners = |m: &crate::geometry::Mesh| -> Vec<[Vec3; 3]> {
+            (0..m.indices.len() as u32).map(|t| m.vertices(t)).collect()
+        };
+        let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+        assert_eq!(
+            corners(&parts[0].1),
+            [[v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.)]]
+        );
+        // The quad of `-4 -3 -2 -1` and the triangle of `two`.
+        assert_eq!(
+            corners(&parts[1].1),
+            [
+                [v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.)],
+                [v(0., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)],
+                [v(0., 0., 1.), v(1., 0., 1.), v(0., 1., 1.)],
+            ]
+        );
+        // `f 1 2 2` had no area: blue keeps one triangle.
+        assert_eq!(
+            corners(&parts[2].1),
+            [[v(0., 0., 0.), v(1., 1., 0.), v(0., 1., 0.)]]
+        );
+        let e = crate::scene::mesh_io::test_support::err("u.obj", b"v 0 0 0\nusemtl \t\nf 1 1 1\n");
+        assert_eq!(e, ":2:1: `usemtl` needs a material name");
     }
 
     #[test]

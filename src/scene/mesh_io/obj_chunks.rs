@@ -2,7 +2,8 @@
 //! whose meaning luz's scan and `tobj` agree on: `v x y z`, `vt u v ...`,
 //! `vn x y z ...`, faces of at least three corners `v`, `v/vt`, `v//vn` or
 //! `v/vt/vn` with indices in range, `o` and `g` (which end `tobj`'s
-//! models), `usemtl` with a name, comments and keywords neither uses.
+//! models), `usemtl` with a name, `mtllib`, comments and keywords neither
+//! uses.
 //!
 //! The mesh is `tobj`'s (`GPU_LOAD_OPTIONS`) merged as [`super::obj`]
 //! merges it: per model, one vertex per distinct (v, vt, vn) in the order
@@ -11,39 +12,52 @@
 //! comment, more than 32 unused keywords in a chunk) gives `None`, and the
 //! file is read the serial way, which gives today's mesh or error.
 
-use super::checks::{drop_degenerate, dropped_note, summarize};
 use super::chunks::line_chunks;
+use super::obj_merge::{build, groups};
 use super::ply::{parse_float, Ty};
-use super::Noted;
-use crate::echo::echo;
-use crate::geometry::Mesh;
+use super::MeshFile;
 use crate::math::{Vec2, Vec3};
 use crate::meter::Step;
-use std::collections::HashMap;
 
 /// No texture coordinate or normal at a corner.
-const MISSING: u32 = u32::MAX;
+pub(super) const MISSING: u32 = u32::MAX;
 
 /// The most distinct unused keywords a chunk may count (as `scan_obj`).
-const MAX_UNUSED_KEYWORDS: usize = 32;
+pub(super) const MAX_UNUSED_KEYWORDS: usize = 32;
 
 /// What one chunk read.
 #[derive(Default)]
-struct Part {
-    positions: Vec<Vec3>,
-    texcoords: Vec<Vec2>,
-    normals: usize,
+pub(super) struct Part {
+    pub(super) positions: Vec<Vec3>,
+    pub(super) texcoords: Vec<Vec2>,
+    pub(super) normals: usize,
     /// Per triangle, the position index of each corner, and the texture
     /// coordinate and normal indices once a corner has one.
-    tri_v: Vec<[u32; 3]>,
-    tri_vt: Option<Vec<[u32; 3]>>,
-    tri_vn: Option<Vec<[u32; 3]>>,
+    pub(super) tri_v: Vec<[u32; 3]>,
+    pub(super) tri_vt: Option<Vec<[u32; 3]>>,
+    pub(super) tri_vn: Option<Vec<[u32; 3]>>,
     /// The triangle counts at which an `o` or `g` came.
-    breaks: Vec<usize>,
-    unused: Vec<(String, usize)>,
+    pub(super) breaks: Vec<usize>,
+    /// The `usemtl` and `mtllib` statements, in order.
+    pub(super) groups: Vec<GroupStatement>,
+    pub(super) unused: Vec<(String, usize)>,
     /// Per kind (v, vt, vn), the most a positive index goes past the
     /// chunk's own count so far: the chunk's start must be at least that.
     need: [i64; 3],
+}
+
+/// A `usemtl` or `mtllib` statement of a chunk, on the line that starts at
+/// byte `at` of the chunk.
+pub(super) enum GroupStatement {
+    Use {
+        triangle: usize,
+        at: usize,
+        name: String,
+    },
+    Library {
+        at: usize,
+        name: String,
+    },
 }
 
 enum Outcome {
@@ -204,8 +218,8 @@ fn read_chunk(d: &[u8], start: Option<[usize; 3]>) -> Outcome {
     }
 }
 
-/// Reads the statement of keyword `kw` on the line at `line_start`, the
-/// cursor after the keyword.
+/// Reads the statement of keyword `kw` on the line at byte `line_start`,
+/// the cursor after the keyword.
 #[inline]
 fn statement(
     c: &mut Cursor,
@@ -242,26 +256,45 @@ fn statement(
             count_unused(&mut p.unused, kw)?;
         }
         b"l" => return Err(Stop::Bail),
-        b"usemtl" => {
-            let d = c.d;
-            let end = d[line_start..]
-                .iter()
-                .position(|&b| b == b'\n')
-                .map_or(d.len(), |k| line_start + k);
-            let line = &d[line_start..end];
-            // `tobj` takes the name after the first space, trimmed; none is
-            // its error.
-            let name = line
-                .iter()
-                .position(|&b| b == b' ')
-                .map_or(&line[..0], |k| &line[k + 1..]);
-            if name.trim_ascii().is_empty() {
-                return Err(Stop::Bail);
-            }
-            count_unused(&mut p.unused, kw)?;
-        }
+        b"usemtl" | b"mtllib" => group_statement(c, kw, line_start, p)?,
         _ => count_unused(&mut p.unused, kw)?,
     }
+    Ok(())
+}
+
+/// A `usemtl` or `mtllib` statement, as [`statement`] reads it: rare, so
+/// kept out of the loop over the file's lines.
+#[cold]
+#[inline(never)]
+fn group_statement(c: &mut Cursor, kw: &[u8], line_start: usize, p: &mut Part) -> Result<(), Stop> {
+    let d = c.d;
+    let end = d[line_start..]
+        .iter()
+        .position(|&b| b == b'\n')
+        .map_or(d.len(), |k| line_start + k);
+    let text = &d[line_start..end];
+    // `tobj` takes the name after the first space, trimmed; none is
+    // its error.
+    let after_space = text
+        .iter()
+        .position(|&b| b == b' ')
+        .map_or(&text[..0], |k| &text[k + 1..]);
+    if kw == b"usemtl" && after_space.trim_ascii().is_empty() {
+        return Err(Stop::Bail);
+    }
+    // The name is all that follows the keyword (ASCII here).
+    let name = String::from_utf8_lossy(d[c.i..end].trim_ascii()).into_owned();
+    p.groups.push(match kw {
+        b"usemtl" => GroupStatement::Use {
+            triangle: p.tri_v.len(),
+            at: line_start,
+            name,
+        },
+        _ => GroupStatement::Library {
+            at: line_start,
+            name,
+        },
+    });
     Ok(())
 }
 
@@ -346,7 +379,7 @@ fn corner(
 
 /// Reads the OBJ file `data` in chunks of about `chunk_bytes`, or `None`
 /// when the serial reader must.
-pub(super) fn parse_obj_chunks(data: &[u8], chunk_bytes: usize) -> Option<Noted> {
+pub(super) fn parse_obj_chunks(data: &[u8], chunk_bytes: usize) -> Option<MeshFile> {
     use rayon::prelude::*;
     let chunks = line_chunks(data, chunk_bytes);
     let progress = Step::current();
@@ -395,123 +428,6 @@ pub(super) fn parse_obj_chunks(data: &[u8], chunk_bytes: usize) -> Option<Noted>
         }
         read.push(p);
     }
-    build(read)
-}
-
-/// The merged mesh of the chunks' statements, as `tobj` and
-/// [`super::obj`] make it.
-fn build(parts: Vec<Part>) -> Option<Noted> {
-    let all = |f: fn(&Part) -> usize| parts.iter().map(f).sum::<usize>();
-    let mut pos = Vec::with_capacity(all(|p| p.positions.len()));
-    let mut tex = Vec::with_capacity(all(|p| p.texcoords.len()));
-    let triangles = all(|p| p.tri_v.len());
-    // Model boundaries: an `o` or `g` after at least one face since the last.
-    let mut boundaries = Vec::new();
-    let mut unused: Vec<(String, usize)> = Vec::new();
-    let mut offset = 0;
-    for p in &parts {
-        pos.extend_from_slice(&p.positions);
-        tex.extend_from_slice(&p.texcoords);
-        boundaries.extend(p.breaks.iter().map(|b| b + offset));
-        offset += p.tri_v.len();
-        for (kw, n) in &p.unused {
-            if let Some(e) = unused.iter_mut().find(|(k, _)| k == kw) {
-                e.1 += n;
-            } else if unused.len() < MAX_UNUSED_KEYWORDS {
-                unused.push((kw.clone(), *n));
-            }
-        }
-    }
-    if triangles == 0 {
-        return None;
-    }
-    // Per position: (model + 1, vt, vn, vertex) of its first corner in the
-    // model; further (v, vt, vn) of the model in `more`.
-    let mut first = vec![[0u32; 4]; pos.len()];
-    let mut more: HashMap<[u32; 3], u32> = HashMap::new();
-    let mut model = 1u32;
-    let mut model_start = 0usize;
-    let mut next_boundary = boundaries.iter().peekable();
-    let mut positions = Vec::with_capacity(pos.len());
-    let mut uvs = Vec::new();
-    let mut with_vt = 0usize;
-    let mut indices = Vec::with_capacity(triangles);
-    let mut t = 0usize;
-    for p in &parts {
-        for (j, tv) in p.tri_v.iter().enumerate() {
-            let mut cut = false;
-            while next_boundary.next_if(|&&b| b <= t).is_some() {
-                cut = true;
-            }
-            if cut && t > model_start {
-                model += 1;
-                model_start = t;
-                more.clear();
-            }
-            let tvt = p.tri_vt.as_ref().map_or([MISSING; 3], |l| l[j]);
-            let tvn = p.tri_vn.as_ref().map_or([MISSING; 3], |l| l[j]);
-            let mut tri = [0u32; 3];
-            for k in 0..3 {
-                let (v, vt, vn) = (tv[k], tvt[k], tvn[k]);
-                let e = &mut first[v as usize];
-                let found = if e[0] != model {
-                    *e = [model, vt, vn, positions.len() as u32];
-                    None
-                } else if e[1] == vt && e[2] == vn {
-                    Some(e[3])
-                } else {
-                    let n = positions.len() as u32;
-                    match more.entry([v, vt, vn]) {
-                        std::collections::hash_map::Entry::Occupied(o) => Some(*o.get()),
-                        std::collections::hash_map::Entry::Vacant(s) => {
-                            s.insert(n);
-                            None
-                        }
-                    }
-                };
-                tri[k] = match found {
-                    Some(i) => i,
-                    None => {
-                        let i = positions.len() as u32;
-                        positions.push(pos[v as usize]);
-                        if vt != MISSING {
-                            with_vt += 1;
-                            uvs.push(tex[vt as usize]);
-                        }
-                        i
-                    }
-                };
-            }
-            indices.push(tri);
-            t += 1;
-        }
-    }
-    drop((pos, tex, first, more));
-    let any_uv = with_vt > 0;
-    let with_uv = any_uv && with_vt == positions.len();
-    let mut mesh = Mesh {
-        positions,
-        indices,
-        uvs: with_uv.then_some(uvs),
-        normals: None,
-    };
-    let dropped = drop_degenerate(&mesh.positions, &mut mesh.indices);
-    if mesh.indices.is_empty() {
-        return None;
-    }
-    let mut notes = Vec::new();
-    if !unused.is_empty() {
-        let items: Vec<String> = unused
-            .iter()
-            .map(|(kw, n)| format!("{} ({n})", echo(kw)))
-            .collect();
-        notes.push(format!("not used: {}", summarize(&items)));
-    }
-    if any_uv && !with_uv {
-        notes.push("texture coordinates dropped: not every face has them".into());
-    }
-    if dropped > 0 {
-        notes.push(dropped_note(dropped, triangles));
-    }
-    Some((mesh, notes))
+    let groups = groups(data, &chunks, &read);
+    build(read, groups)
 }

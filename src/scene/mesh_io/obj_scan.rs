@@ -2,27 +2,38 @@
 //! silently or reports without a line, and counts what luz does not use.
 
 use super::fail::{column, fail_at, show, Fail};
+use super::groups::GroupsBuilder;
 use std::str::SplitAsciiWhitespace;
 
 /// The most distinct unused keywords counted: a file of random keywords
 /// must not grow the list without end.
 const MAX_UNUSED_KEYWORDS: usize = 32;
 
+/// What a scan saw besides errors.
+#[derive(Default)]
+pub(super) struct Seen {
+    /// The statements luz does not use, by keyword.
+    pub(super) unused: Vec<(String, usize)>,
+    /// The `usemtl` and `mtllib` statements.
+    pub(super) groups: GroupsBuilder,
+    /// The triangles of the faces so far, fan-triangulated.
+    pub(super) triangles: usize,
+}
+
 /// Finds the line of the first malformed statement: a `v` of fewer than 3
 /// numbers, a face of fewer than 3 vertices, an index (of a vertex, texture
-/// coordinate or normal) that is 0 or past those defined so far; with
-/// `numbers`, also a `v` or `vt` number that does not parse or is not
-/// finite (`tobj` reports none of these with a line). Counts the statements
-/// luz does not use into `unused`, by keyword. Linear in the text.
-pub(super) fn scan_obj(
-    text: &str,
-    numbers: bool,
-    unused: &mut Vec<(String, usize)>,
-) -> Option<Fail> {
+/// coordinate or normal) that is 0 or past those defined so far, a
+/// `usemtl` without a name; with `numbers`, also a `v` or `vt` number that
+/// does not parse or is not finite (`tobj` reports none of these with a
+/// line). Records what else it sees into `seen`. Linear in the text.
+pub(super) fn scan_obj(text: &str, numbers: bool, seen: &mut Seen) -> Option<Fail> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
     for (no, line) in text.lines().enumerate() {
         let no = no + 1;
         let mut words = line.split_ascii_whitespace();
+        let kw = words.clone().next();
+        // What follows the keyword: names may hold spaces.
+        let rest = || kw.map_or("", |kw| line[column(line, kw) - 1 + kw.len()..].trim());
         match words.next() {
             Some("v") => {
                 if words.clone().count() < 3 {
@@ -45,14 +56,28 @@ pub(super) fn scan_obj(
             }
             Some("vn") => {
                 nvn += 1;
-                count_unused(unused, "vn");
+                count_unused(&mut seen.unused, "vn");
             }
             Some("f") => {
+                let corners = words.clone().count();
                 if let Some(f) = check_face(line, no, words, [nv, nvt, nvn]) {
                     return Some(f);
                 }
+                seen.triangles += corners - 2;
             }
-            Some(kw) if !kw.starts_with('#') => count_unused(unused, kw),
+            Some("usemtl") => {
+                if rest().is_empty() {
+                    return Some(fail_at(no, 1, "`usemtl` needs a material name"));
+                }
+                seen.groups.use_material(seen.triangles, rest(), no);
+            }
+            Some("mtllib") => seen.groups.library(rest(), no),
+            Some("l") => {
+                // `tobj` reads a line of three or more points as a polygon.
+                seen.triangles += words.count().saturating_sub(2);
+                count_unused(&mut seen.unused, "l");
+            }
+            Some(kw) if !kw.starts_with('#') => count_unused(&mut seen.unused, kw),
             _ => {}
         }
     }

@@ -65,6 +65,10 @@ pub fn load_str(text: &str, path: &Path, options: &LoadOptions) -> Result<Scene,
         root.loc
             .error("the scene has no <sensor>; luz needs a perspective camera")
     })?;
+    if !b.no_area.is_empty() {
+        b.problems
+            .warn(&root.loc, super::no_area_warning(&b.no_area))?;
+    }
     let mut scene = Scene::new(
         camera,
         b.materials,
@@ -74,6 +78,9 @@ pub fn load_str(text: &str, path: &Path, options: &LoadOptions) -> Result<Scene,
         b.environment,
         render,
     );
+    if !scene.has_light() {
+        b.problems.warn(&root.loc, super::UNLIT_WARNING)?;
+    }
     scene.files = reader.files;
     scene.files.extend(b.files);
     scene.warnings = b.problems.warnings;
@@ -135,6 +142,8 @@ struct Builder<'e, 'i> {
     /// would otherwise recurse for ever.
     bsdf_depth: usize,
     shapes: Vec<Shape>,
+    /// The mesh files left out, with no triangle of any area.
+    no_area: Vec<String>,
     point_lights: Vec<PointLight>,
     environment: Option<crate::scene::Environment>,
 }
@@ -152,6 +161,7 @@ impl<'e, 'i> Builder<'e, 'i> {
             default_material: None,
             bsdf_depth: 0,
             shapes: Vec::new(),
+            no_area: Vec::new(),
             point_lights: Vec::new(),
             environment: None,
         }

@@ -1,5 +1,7 @@
 //! `<shape>`: obj, ply, rectangle, cube, disk and sphere, placed by
-//! `to_world`, with `flip_normals`, their BSDF and an area emitter.
+//! `to_world`, with `flip_normals`, their BSDF and an area emitter; an
+//! `obj` without a BSDF takes the materials of its own `.mtl`, one shape
+//! per material.
 
 use super::props::Props;
 use super::xml::Elem;
@@ -7,8 +9,13 @@ use super::Builder;
 use crate::echo::echo;
 use crate::geometry::{within_bounds, Geometry, Mesh, Quad, Sphere};
 use crate::math::Vec2;
-use crate::scene::{Opacity, SceneError, Shape};
+use crate::scene::mesh_io::{
+    drop_degenerate_grouped, read_mesh, MaterialGroups, MeshError, MeshFile,
+};
+use crate::scene::obj_materials::obj_parts;
+use crate::scene::{Opacity, SceneError, Shape, Texture, UvTransform};
 use glam::{DMat4, DVec3};
+use std::path::{Path, PathBuf};
 
 /// Segments of the polygon that stands in for a disk.
 const DISK_SEGMENTS: u32 = 64;
@@ -20,16 +27,28 @@ impl<'e> Builder<'e, '_> {
         let flip = props.boolean("flip_normals")?.unwrap_or(false);
         // luz shades with the geometric normal, which is what this asks.
         props.accept("face_normals");
+        // An OBJ file's own materials, used when the shape gives no BSDF.
+        let mut own_materials = None;
         let geometry = match e.kind() {
-            "obj" | "ply" => self.mesh_file(&props, &m)?,
+            "obj" | "ply" => match self.mesh_file(&props, &m)? {
+                Some((mesh, path, groups)) => {
+                    own_materials = (!groups.is_empty()).then_some((path, groups));
+                    Geometry::Mesh(mesh)
+                }
+                None => {
+                    props.objects("bsdf")?;
+                    props.objects("emitter")?;
+                    return props.finish(&mut self.problems);
+                }
+            },
             "rectangle" => rectangle(e, &m)?,
-            "cube" => checked(e, cube(&m))?,
+            "cube" => Geometry::Mesh(checked(e, cube(&m))?),
             "disk" => {
                 self.problems.warn(
                     &e.loc,
                     format!("<shape type=\"disk\">: substituted a {DISK_SEGMENTS}-sided polygon of the same area"),
                 )?;
-                checked(e, disk(&m))?
+                Geometry::Mesh(checked(e, disk(&m))?)
             }
             "sphere" => self.sphere(&props, &m, flip)?,
             other => {
@@ -45,54 +64,83 @@ impl<'e> Builder<'e, '_> {
         // product of the transformed edges points the other way when
         // to_world mirrors.
         let mirrored = matches!(e.kind(), "rectangle" | "disk") && m.determinant() < 0.0;
-        let geometry = if flip != mirrored {
-            flipped(geometry)
-        } else {
-            geometry
+        let pieces = match (props.objects("bsdf")?.first(), own_materials) {
+            (Some(b), _) => {
+                let (material, uv) = self.material_of(b)?;
+                vec![(geometry, material, uv)]
+            }
+            (None, Some((path, groups))) => self.obj_parts(e, &path, geometry, &groups)?,
+            (None, None) => vec![(geometry, self.default_material(), None)],
         };
-        let (material, uv) = match props.objects("bsdf")?.first() {
-            Some(b) => self.material_of(b)?,
-            None => (self.default_material(), None),
-        };
-        let m = &self.materials[material as usize];
-        let textured = m.texture.is_some() || matches!(m.opacity, Some(Opacity::Texture(_)));
-        if textured && e.kind() == "sphere" {
-            self.problems.warn(
-                &e.loc,
-                "a textured sphere: luz wraps textures around the world's y axis, Mitsuba around the sphere's local z; the texture lies differently",
-            )?;
+        let emitters = props.objects("emitter")?;
+        for (geometry, material, uv) in pieces {
+            let geometry = if flip != mirrored {
+                flipped(geometry)
+            } else {
+                geometry
+            };
+            let m = &self.materials[material as usize];
+            let textured = m.texture.is_some() || matches!(m.opacity, Some(Opacity::Texture(_)));
+            if textured && e.kind() == "sphere" {
+                self.problems.warn(
+                    &e.loc,
+                    "a textured sphere: luz wraps textures around the world's y axis, Mitsuba around the sphere's local z; the texture lies differently",
+                )?;
+            }
+            let mut shape = Shape::new(geometry, material);
+            if let Some(uv) = uv {
+                shape.uv_transform = uv;
+            }
+            // The emitters of an OBJ file's own materials (`Ke`) are area
+            // lights, sampled as Mitsuba samples its own.
+            shape.nee = self.materials[material as usize].is_emissive();
+            for emitter in &emitters {
+                self.area_emitter(emitter, &mut shape)?;
+            }
+            self.shapes.push(shape);
         }
-        let mut shape = Shape::new(geometry, material);
-        if let Some(uv) = uv {
-            shape.uv_transform = uv;
-        }
-        for emitter in props.objects("emitter")? {
-            self.area_emitter(emitter, &mut shape)?;
-        }
-        props.finish(&mut self.problems)?;
-        self.shapes.push(shape);
-        Ok(())
+        props.finish(&mut self.problems)
     }
 
-    fn mesh_file(&mut self, props: &Props, m: &DMat4) -> Result<Geometry, SceneError> {
+    /// The mesh of an `obj` or `ply` shape placed by `m`, its path and the
+    /// material groups of its faces; `None` when no triangle has any area
+    /// (the scene leaves it out, and says so once for all such meshes).
+    fn mesh_file(
+        &mut self,
+        props: &Props,
+        m: &DMat4,
+    ) -> Result<Option<(Mesh, PathBuf, MaterialGroups)>, SceneError> {
         let e = props.elem;
         let name = props
             .string("filename")?
             .ok_or_else(|| e.loc.error(format!("{} needs `filename`", e.describe())))?;
         let path = self.file(e, name)?;
-        let (mut mesh, mut notes) = crate::scene::mesh_io::read_mesh(&path)
-            .map_err(|err| e.loc.error(format!("`filename`: {err}")))?;
+        let MeshFile {
+            mut mesh,
+            mut notes,
+            mut groups,
+        } = match read_mesh(&path) {
+            Ok(read) => read,
+            Err(MeshError::NoArea { .. }) => {
+                self.no_area.push(echo(name));
+                return Ok(None);
+            }
+            Err(err) => return Err(e.loc.error(format!("`filename`: {err}"))),
+        };
         // Mitsuba's OBJ reader turns v over (its images have v = 0 on top,
         // as `bitmap` keeps them): so does luz's import, which stores
-        // bitmaps upside down for luz's v-up lookup.
+        // images upside down for luz's v-up lookup.
         if let (Some(uvs), "obj") = (&mut mesh.uvs, e.kind()) {
             uvs.iter_mut().for_each(|uv| uv.y = 1.0 - uv.y);
         }
         if *m != DMat4::IDENTITY {
             mesh.transform(&m.as_mat4());
             let before = mesh.indices.len();
-            let dropped =
-                crate::scene::mesh_io::drop_degenerate(&mesh.positions, &mut mesh.indices);
+            let dropped = drop_degenerate_grouped(&mesh.positions, &mut mesh.indices, &mut groups);
+            if mesh.indices.is_empty() {
+                self.no_area.push(echo(name));
+                return Ok(None);
+            }
             if dropped > 0 {
                 notes.push(format!(
                     "dropped {dropped} of {before} triangles, degenerate once transformed"
@@ -102,18 +150,62 @@ impl<'e> Builder<'e, '_> {
         // Mitsuba's loaders read normals and uvs luz may not use; which
         // ones is said by the mesh reader.
         props.accept("face_normals");
+        if !groups.is_empty() && !props.objects("bsdf")?.is_empty() {
+            notes.push(format!(
+                "the materials its faces ask for (`usemtl`, {}) are not used: the shape's <bsdf> applies to every face",
+                groups.names.len()
+            ));
+        }
         if !notes.is_empty() {
             self.problems
                 .warn(&e.loc, format!("{}: {}", path.display(), notes.join("; ")))?;
         }
-        if mesh.indices.is_empty() {
-            return Err(e.loc.error(format!(
-                "{}: the mesh has no triangle with area",
-                echo(name)
-            )));
-        }
         mesh.positions.reserve_exact(1);
-        checked(e, mesh)
+        Ok(Some((checked(e, mesh)?, path, groups)))
+    }
+
+    /// The pieces of an OBJ mesh cut by the materials of its own `.mtl`.
+    fn obj_parts(
+        &mut self,
+        e: &Elem,
+        path: &Path,
+        geometry: Geometry,
+        groups: &MaterialGroups,
+    ) -> Result<Vec<Piece>, SceneError> {
+        let Geometry::Mesh(mesh) = geometry else {
+            unreachable!("only mesh files have material groups")
+        };
+        let parts = obj_parts(path, mesh, groups)
+            .map_err(|err| e.loc.error(format!("`filename`: {err}")))?;
+        self.files.extend(parts.files);
+        for w in parts.warnings {
+            self.problems.warn(&e.loc, w)?;
+        }
+        let texture_base = self.textures.len() as u32;
+        let material_base = self.materials.len() as u32;
+        // Stored upside down, as every image of a Mitsuba scene is.
+        self.textures
+            .extend(parts.textures.into_iter().map(Texture::upside_down));
+        self.materials
+            .extend(parts.materials.into_iter().map(|mut m| {
+                m.texture = m.texture.map(|t| t + texture_base);
+                m
+            }));
+        let mut pieces = Vec::with_capacity(parts.parts.len());
+        for (mut mesh, m) in parts.parts {
+            mesh.positions.reserve_exact(1);
+            let geometry = Geometry::Mesh(mesh);
+            let material = &self.materials[(material_base + m) as usize];
+            let power = material.emission.max_element() * geometry.area().unwrap_or(0.0);
+            if !power.is_finite() {
+                return Err(e.loc.error(format!(
+                    "the emitted power of material {} (`Ke` times the area) overflows f32",
+                    echo(&material.name)
+                )));
+            }
+            pieces.push((geometry, material_base + m, None));
+        }
+        Ok(pieces)
     }
 
     fn sphere(&mut self, props: &Props, m: &DMat4, flip: bool) -> Result<Geometry, SceneError> {
@@ -153,8 +245,11 @@ impl<'e> Builder<'e, '_> {
     }
 }
 
+/// A shape's geometry, its material and texture mapping.
+type Piece = (Geometry, u32, Option<UvTransform>);
+
 /// Every vertex within the coordinates luz can intersect.
-fn checked(e: &Elem, mesh: Mesh) -> Result<Geometry, SceneError> {
+fn checked(e: &Elem, mesh: Mesh) -> Result<Mesh, SceneError> {
     if let Some((i, p)) = mesh
         .positions
         .iter()
@@ -165,7 +260,7 @@ fn checked(e: &Elem, mesh: Mesh) -> Result<Geometry, SceneError> {
             "vertex {i} of the shape, at {p}, lies beyond ±1e12 (or is not finite) once transformed"
         )));
     }
-    Ok(Geometry::Mesh(mesh))
+    Ok(mesh)
 }
 
 /// The square [-1, 1]² at z = 0, front +z.

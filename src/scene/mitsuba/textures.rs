@@ -84,14 +84,9 @@ impl Builder<'_, '_> {
             Ok(img) => Ok(Texture::Image {
                 width: img.width,
                 height: img.height,
-                texels: img
-                    .pixels
-                    .chunks_exact(img.width as usize)
-                    .rev()
-                    .flatten()
-                    .copied()
-                    .collect(),
-            }),
+                texels: img.pixels,
+            }
+            .upside_down()),
             Err(e) => {
                 self.problems.warn(
                     &t.loc,

@@ -12,8 +12,8 @@ mod triangles;
 pub(super) use header::{parse_header, Format, Header, Kind, Ty};
 pub(super) use numbers::parse_float;
 
-use super::checks::{drop_degenerate, dropped_note, no_faces, summarize};
-use super::fail::{fail_at, fail_byte, short, Fail};
+use super::checks::{drop_degenerate, dropped_note, summarize};
+use super::fail::{fail_byte, no_triangles, short, Fail};
 use super::Noted;
 use crate::echo::echo;
 use crate::geometry::Mesh;
@@ -47,7 +47,7 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
     let triangles = out.indices.len();
     let dropped = drop_degenerate(&out.positions, &mut out.indices);
     if out.indices.is_empty() {
-        return Err(fail_at(face_line, 1, no_faces(triangles)));
+        return Err(no_triangles(face_line, 1, triangles));
     }
     let unused = unused(&header.elements, &roles, vertex, face);
     let mut notes = Vec::new();
