@@ -123,15 +123,15 @@ radiance = 1
     }
 }
 
-#[test]
-fn point_light_over_diffuse_plane_follows_inverse_square_and_cosine() {
-    // A camera with a tiny field of view looks at one point of the plane
-    // y = 0; the light is at height 2 above the origin.
+/// The radiance a camera with a tiny field of view sees at the point
+/// `(x, 0, z)` of a diffuse plane y = 0 of albedo `kd`, lit by `light` (a
+/// `[[lights]]` table's body) 2 above the origin, on each backend; checked
+/// against `kd / π · intensity · falloff · cos / d²` to 1e-4, `falloff` being
+/// the light's own factor in that direction.
+fn check_light_over_diffuse_plane(x: f32, z: f32, light: &str, intensity: f32, falloff: f32) {
     let kd = 0.7f32;
-    let intensity = 5.0f32;
-    for (x, z) in [(0.0f32, 0.0f32), (1.0, 0.5), (-2.5, 1.5)] {
-        let text = format!(
-            r#"
+    let text = format!(
+        r#"
 [camera]
 eye = [{x}, 3, {zc}]
 target = [{x}, 0, {z}]
@@ -149,72 +149,41 @@ point = [0, 0, 0]
 normal = [0, 1, 0]
 material = "m"
 [[lights]]
-type = "point"
 position = [0, 2, 0]
 intensity = {intensity}
+{light}
 "#,
-            zc = z + 0.5
+        zc = z + 0.5
+    );
+    for backend in backends() {
+        let film = render_scene(&scene(&text), backend);
+        let (mean, _) = mean_and_se(&film, 1);
+        let d2 = x * x + 4.0 + z * z;
+        let cos = 2.0 / d2.sqrt();
+        let expected = kd / PI * intensity * falloff * cos / d2;
+        assert!(
+            ((mean as f32) - expected).abs() <= 1e-4 * expected,
+            "{backend:?} at ({x}, {z}), {light}: {mean} vs {expected}"
         );
-        for backend in backends() {
-            let film = render_scene(&scene(&text), backend);
-            let (mean, _) = mean_and_se(&film, 1);
-            let d2 = x * x + 4.0 + z * z;
-            let cos = 2.0 / d2.sqrt();
-            let expected = kd / PI * intensity * cos / d2;
-            assert!(
-                ((mean as f32) - expected).abs() < 1e-4 * expected,
-                "{backend:?} at ({x}, {z}): {mean} vs {expected}"
-            );
-        }
+    }
+}
+
+#[test]
+fn point_light_over_diffuse_plane_follows_inverse_square_and_cosine() {
+    for (x, z) in [(0.0f32, 0.0f32), (1.0, 0.5), (-2.5, 1.5)] {
+        check_light_over_diffuse_plane(x, z, r#"type = "point""#, 5.0, 1.0);
     }
 }
 
 #[test]
 fn spot_light_over_diffuse_plane_follows_its_cone() {
-    // A spot 2 above the origin aims straight down: full intensity within
-    // 20° of its axis, linear in the angle to zero at 40°. The camera looks
-    // at the point of the plane the spot sees at angle `degrees`.
-    let (kd, intensity) = (0.7f32, 5.0f32);
+    // The spot aims straight down: full intensity within 20° of its axis,
+    // linear in the angle to zero at 40°. The camera looks at the point of
+    // the plane the spot sees at angle `degrees`.
+    let spot = "type = \"spot\"\ntarget = [0, 0, 0]\ncutoff_angle = 40\nbeam_width = 20";
     for (degrees, falloff) in [(10.0f32, 1.0f32), (25.0, 0.75), (35.0, 0.25), (45.0, 0.0)] {
         let x = 2.0 * degrees.to_radians().tan();
-        let text = format!(
-            r#"
-[camera]
-eye = [{x}, 3, 0.5]
-target = [{x}, 0, 0]
-fov = 0.001
-resolution = [2, 2]
-[render]
-spp = 4
-max_depth = 2
-russian_roulette = false
-[materials.m]
-kd = {kd}
-[[shapes]]
-type = "plane"
-point = [0, 0, 0]
-normal = [0, 1, 0]
-material = "m"
-[[lights]]
-type = "spot"
-position = [0, 2, 0]
-target = [0, 0, 0]
-intensity = {intensity}
-cutoff_angle = 40
-beam_width = 20
-"#
-        );
-        for backend in backends() {
-            let film = render_scene(&scene(&text), backend);
-            let (mean, _) = mean_and_se(&film, 1);
-            let d2 = x * x + 4.0;
-            let cos = 2.0 / d2.sqrt();
-            let expected = kd / PI * intensity * falloff * cos / d2;
-            assert!(
-                ((mean as f32) - expected).abs() <= 1e-4 * expected,
-                "{backend:?} at {degrees}°: {mean} vs {expected}"
-            );
-        }
+        check_light_over_diffuse_plane(x, 0.0, spot, 5.0, falloff);
     }
 }
 
