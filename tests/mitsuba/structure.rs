@@ -286,3 +286,67 @@ fn ref_cycles_and_include_cycles_are_errors_not_overflows() {
     );
     assert!(err.contains("given twice"), "{err}");
 }
+
+/// Mitsuba's own Cornell box names its meshes relative to the scene from an
+/// included fragment, and refers to a top-level area emitter; `<path>` adds
+/// a folder to look in.
+#[test]
+fn file_names_resolve_as_mitsuba_resolves_them() {
+    let dir = temp_dir("resolver");
+    for sub in ["fragments", "meshes", "common"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+    }
+    let quad = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n";
+    std::fs::write(dir.join("meshes/quad.obj"), quad).unwrap();
+    std::fs::write(dir.join("common/other.obj"), quad).unwrap();
+    let fragment = r#"<scene version="3.0.0">
+        <shape type="obj"><string name="filename" value="meshes/quad.obj"/><ref id="lamp"/></shape>
+        <shape type="obj"><string name="filename" value="other.obj"/></shape></scene>"#;
+    std::fs::write(dir.join("fragments/shapes.xml"), fragment).unwrap();
+    let write_scene = |body: &str| {
+        let path = dir.join("scene.xml");
+        std::fs::write(&path, scene(body)).unwrap();
+        load_with(&path, &LoadOptions::default())
+    };
+    let s = write_scene(
+        r#"<path value="common"/>
+        <emitter type="area" id="lamp"><rgb name="radiance" value="2, 2, 2"/></emitter>
+        <include filename="fragments/shapes.xml"/>"#,
+    )
+    .unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(s.shapes.len(), 2);
+    let emission = |i: usize| s.materials[s.shapes[i].material as usize].emission;
+    assert!(close(emission(0), Vec3::splat(2.0)), "{:?}", emission(0));
+    assert!(close(emission(1), Vec3::ZERO), "{:?}", emission(1));
+    for file in ["meshes/quad.obj", "common/other.obj"] {
+        assert!(
+            s.files.iter().any(|f| f.ends_with(file)),
+            "{file}: {:?}",
+            s.files
+        );
+    }
+
+    // Without the <path>, other.obj is found nowhere, and the message says
+    // where luz looked.
+    let err = write_scene(
+        r#"<emitter type="area" id="lamp"><rgb name="radiance" value="2, 2, 2"/></emitter>
+        <include filename="fragments/shapes.xml"/>"#,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        err.contains("shapes.xml:3:") && err.contains("other.obj") && err.contains("looked in"),
+        "{err}"
+    );
+    let err = write_scene(r#"<path value="nowhere"/>"#)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("scene.xml:") && err.contains("<path>") && err.contains("nowhere"),
+        "{err}"
+    );
+    let err = write_scene(r#"<shape type="sphere"><path value="common"/></shape>"#)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("must be a child of <scene>"), "{err}");
+}

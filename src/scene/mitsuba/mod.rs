@@ -9,6 +9,7 @@ mod cie;
 mod conductors;
 mod emitters;
 mod props;
+mod resolver;
 mod sensor;
 mod shapes;
 mod spectrum;
@@ -27,11 +28,12 @@ use xml::{Elem, Loc};
 
 /// Loads the Mitsuba scene `text` read from `path`.
 pub fn load_str(text: &str, path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
-    let mut reader = xml::Reader::new(&options.defines);
+    let mut reader = xml::Reader::new(&options.defines, path);
     let root = reader.scene(text, path)?;
     let mut ids = Ids::new();
     collect_ids(&root, &mut ids)?;
-    let mut b = Builder::new(&ids, options.strict);
+    let resolver = std::mem::take(&mut reader.resolver);
+    let mut b = Builder::new(&ids, options.strict, resolver);
     let mut render = RenderSettings {
         max_depth: sensor::UNBOUNDED_DEPTH,
         ..RenderSettings::default()
@@ -52,9 +54,11 @@ pub fn load_str(text: &str, path: &Path, options: &LoadOptions) -> Result<Scene,
                 camera = Some(s.camera);
             }
             "shape" => b.shape(c)?,
-            "emitter" => b.emitter(c)?,
-            // Defined for `<ref>`s; read where they are referenced.
+            // Defined for `<ref>`s; read where they are referenced (an
+            // area emitter by the shapes that refer to it).
             "bsdf" | "texture" | "medium" | "spectrum" if c.attr("id").is_some() => {}
+            "emitter" if c.kind() == "area" && c.attr("id").is_some() => {}
+            "emitter" => b.emitter(c)?,
             _ => b.problems.warn(
                 &c.loc,
                 format!("{} is not supported here; left out", c.describe()),
@@ -132,6 +136,7 @@ impl Problems {
 struct Builder<'e, 'i> {
     ids: &'i Ids<'e>,
     problems: Problems,
+    resolver: resolver::Resolver,
     files: Vec<PathBuf>,
     textures: Vec<Texture>,
     texture_ids: HashMap<*const Elem, (u32, Option<UvTransform>)>,
@@ -149,10 +154,11 @@ struct Builder<'e, 'i> {
 }
 
 impl<'e, 'i> Builder<'e, 'i> {
-    fn new(ids: &'i Ids<'e>, strict: bool) -> Self {
+    fn new(ids: &'i Ids<'e>, strict: bool, resolver: resolver::Resolver) -> Self {
         Self {
             ids,
             problems: Problems::new(strict),
+            resolver,
             files: Vec::new(),
             textures: Vec::new(),
             texture_ids: HashMap::new(),
@@ -193,10 +199,10 @@ impl<'e, 'i> Builder<'e, 'i> {
         })
     }
 
-    /// A file named by element `e`, relative to the file `e` is written in;
+    /// A file named by element `e`, found as Mitsuba finds it (`resolver`);
     /// it must be a regular file.
     fn file(&mut self, e: &Elem, name: &str) -> Result<PathBuf, SceneError> {
-        let path = e.loc.dir().join(name);
+        let path = self.resolver.resolve(&e.loc, name);
         match std::fs::metadata(&path) {
             Ok(m) if m.is_file() => {
                 self.files.push(path.clone());
@@ -207,8 +213,9 @@ impl<'e, 'i> Builder<'e, 'i> {
                 echo(&path.display().to_string())
             ))),
             Err(err) => Err(e.loc.error(format!(
-                "`filename`: cannot read {}: {err}",
-                echo(&path.display().to_string())
+                "`filename`: cannot read {} (looked in {}): {err}",
+                echo(name),
+                self.resolver.places(&e.loc)
             ))),
         }
     }

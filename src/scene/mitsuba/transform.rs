@@ -109,7 +109,7 @@ mod tests {
     fn transform(steps: &str) -> Result<DMat4, SceneError> {
         let text =
             format!(r#"<scene version="3.0.0"><transform name="t">{steps}</transform></scene>"#);
-        let scene = Reader::new(&[]).scene(&text, Path::new("t.xml"))?;
+        let scene = Reader::new(&[], Path::new("t.xml")).scene(&text, Path::new("t.xml"))?;
         parse(&scene.children[0])
     }
 

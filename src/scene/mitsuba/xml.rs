@@ -3,6 +3,7 @@
 //! 0.5 → 3 upgrade applied per file. Every element keeps its file, line and
 //! column, so later errors and warnings can name them.
 
+use super::resolver::Resolver;
 use super::upgrade;
 use crate::echo::echo;
 use crate::location::{line_column, read_regular_file};
@@ -93,14 +94,19 @@ pub(super) struct Reader {
     /// The files being read, outermost first: an include cycle is refused.
     stack: Vec<PathBuf>,
     pub files: Vec<PathBuf>,
+    /// Where relative file names are looked for, `<path>`s included.
+    pub resolver: Resolver,
 }
 
 impl Reader {
-    pub fn new(defines: &[(String, String)]) -> Self {
+    /// A reader of the scene file `scene_file` (its folder is searched for
+    /// file names last).
+    pub fn new(defines: &[(String, String)], scene_file: &Path) -> Self {
         Self {
             params: defines.iter().cloned().collect(),
             stack: Vec::new(),
             files: Vec::new(),
+            resolver: Resolver::new(scene_file),
         }
     }
 
@@ -191,6 +197,11 @@ impl Reader {
             match child.tag_name().name() {
                 "default" => {}
                 "include" => out.extend(self.include(child, &loc)?),
+                "path" if depth == 0 => {
+                    let value = self.substitute(path_value(child, &loc)?, &loc)?;
+                    self.resolver.add(&loc, &value)?;
+                }
+                "path" => return Err(loc.error("<path> must be a child of <scene>")),
                 _ => out.push(self.element(doc, child, file, version, loc, depth)?),
             }
         }
@@ -263,7 +274,7 @@ impl Reader {
             .attribute("filename")
             .ok_or_else(|| loc.error("<include> needs the attribute `filename`"))?;
         let name = self.substitute(name, loc)?;
-        let path = loc.dir().join(&name);
+        let path = self.resolver.resolve(loc, &name);
         if self.stack.iter().any(|p| p == &path) || self.stack.len() >= MAX_INCLUDE_DEPTH {
             return Err(loc.error(format!(
                 "<include> of {}: the includes form a cycle (or nest deeper than {MAX_INCLUDE_DEPTH})",
@@ -272,8 +283,9 @@ impl Reader {
         }
         let data = read_regular_file(&path).map_err(|e| {
             loc.error(format!(
-                "<include>: cannot read {}: {e}",
-                echo(&path.display().to_string())
+                "<include>: cannot read {} (looked in {}): {e}",
+                echo(&name),
+                self.resolver.places(loc)
             ))
         })?;
         let text = std::str::from_utf8(&data).map_err(|e| SceneError {
@@ -283,6 +295,12 @@ impl Reader {
         })?;
         Ok(self.scene(text, &path)?.children)
     }
+}
+
+/// `<path value="...">`'s folder, as written.
+fn path_value<'a>(node: roxmltree::Node<'a, '_>, loc: &Loc) -> Result<&'a str, SceneError> {
+    node.attribute("value")
+        .ok_or_else(|| loc.error("<path> needs the attribute `value`"))
 }
 
 fn location(doc: &roxmltree::Document, node: roxmltree::Node, file: &Rc<PathBuf>) -> Loc {
@@ -303,7 +321,7 @@ mod tests {
             .iter()
             .map(|(k, v)| (k.to_string(), v.to_string()))
             .collect();
-        Reader::new(&defines).scene(text, Path::new("t.xml"))
+        Reader::new(&defines, Path::new("t.xml")).scene(text, Path::new("t.xml"))
     }
 
     #[test]
