@@ -130,7 +130,7 @@ fn sensor_fov_axis_film_and_integrator() {
     let text = r#"<scene version="3.0.0"><integrator type="path">
         <integer name="max_depth" value="5"/><integer name="rr_depth" value="10"/></integrator>
         <sensor type="perspective"><float name="fov" value="90"/>
-        <string name="fov_axis" value="x"/>
+        <string name="fov_axis" value="x"/><float name="focus_distance" value="3"/>
         <film type="hdrfilm"><integer name="width" value="200"/><integer name="height" value="100"/>
         <rfilter type="box"/></film></sensor></scene>"#;
     let text = text.replace("</scene>", &format!("{LIGHT}</scene>"));
@@ -144,7 +144,19 @@ fn sensor_fov_axis_film_and_integrator() {
         "rr_depth past max_depth: no roulette"
     );
     assert_eq!(s.render.spp, 4, "Mitsuba's default sampler");
+    // Mitsuba's pinhole ignores the focus distance too; a clipping plane,
+    // which Mitsuba's uses, is warned about.
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
+    let clipped = text.replace(
+        "<string name=\"fov_axis\"",
+        "<float name=\"near_clip\" value=\"2\"/><string name=\"fov_axis\"",
+    );
+    let s = load("clip", &[("s.xml", &clipped)], &LoadOptions::default()).unwrap();
+    assert!(
+        s.warnings.len() == 1 && s.warnings[0].contains("near_clip"),
+        "{:?}",
+        s.warnings
+    );
 }
 
 #[test]

@@ -56,6 +56,11 @@ pub(super) fn sensor(e: &Elem, ids: &Ids, problems: &mut Problems) -> Result<Sen
     let mut camera = camera(e, &to_world, fov_y as f32, width, height, problems)?;
     camera.fov_axis = fov_axis;
     let (spp, seed) = sampler(&props, ids, problems)?;
+    if e.kind() == "perspective" {
+        // Mitsuba's pinhole takes the focus distance of the lens cameras
+        // and does nothing with it either.
+        props.accept("focus_distance");
+    }
     props.finish(problems)?;
     Ok(Sensor { camera, spp, seed })
 }
