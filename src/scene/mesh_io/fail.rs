@@ -31,8 +31,7 @@ impl Fail {
         match self.at {
             Some(Loc::Text(line, column)) if self.no_area => MeshError::NoArea {
                 path,
-                line,
-                column,
+                place: format!("{line}:{column}"),
                 msg,
             },
             Some(Loc::Text(line, column)) => MeshError::AtLine {

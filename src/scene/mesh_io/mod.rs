@@ -31,6 +31,7 @@ mod obj_chunks;
 mod obj_merge;
 mod obj_scan;
 mod ply;
+mod serialized;
 #[cfg(test)]
 mod test_support;
 
@@ -71,11 +72,12 @@ pub enum MeshError {
     Invalid { path: PathBuf, msg: String },
     /// Every triangle of the file is degenerate: nothing to render, which
     /// scenes skip rather than refuse.
-    #[error("{}:{line}:{column}: {msg}", .path.display())]
+    /// No triangle of the mesh has any area; `place` is where the faces
+    /// were expected (`line:column`, or the mesh in a file of several).
+    #[error("{}:{place}: {msg}", .path.display())]
     NoArea {
         path: PathBuf,
-        line: usize,
-        column: usize,
+        place: String,
         msg: String,
     },
 }
@@ -110,6 +112,17 @@ pub fn read_mesh(path: &Path) -> Result<MeshFile, MeshError> {
 
 /// Parses the contents of a mesh file; `path` picks the format by its
 /// extension, as in [`load_mesh`], and names the file in errors.
+/// Mesh `shape_index` of a Mitsuba `.serialized` file.
+pub fn read_serialized(path: &Path, shape_index: u32) -> Result<MeshFile, MeshError> {
+    let size = std::fs::metadata(path).map_or(0, |m| m.len());
+    let _step = Step::begin(StepKind::ReadMesh { file: path }, size);
+    let data = crate::location::map_regular_file(path).map_err(|source| MeshError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    serialized::parse_serialized(&data, path, shape_index)
+}
+
 pub fn parse_mesh(data: &[u8], path: &Path) -> Result<Mesh, MeshError> {
     parse_mesh_noted(data, path).map(|read| read.mesh)
 }

@@ -54,17 +54,18 @@ impl<'e, 'i> Props<'e, 'i> {
         self.get(name);
     }
 
-    /// The unnamed nested objects of tag `tag` (inline, or `<ref id>`s to
-    /// one), marked used.
+    /// The nested objects of tag `tag` (inline, or `<ref id>`s to one),
+    /// marked used: unnamed, or named as their tag (`<ref name="bsdf"
+    /// id="..."/>`, as Mitsuba's own scenes write); other names are
+    /// properties.
     pub fn objects(&self, tag: &str) -> Result<Vec<&'e Elem>, SceneError> {
         let mut out = Vec::new();
         for (i, c) in self.elem.children.iter().enumerate() {
-            let target = if c.tag == "ref" && c.attr("name").is_none() {
-                self.resolve(c)?
-            } else {
-                c
-            };
-            if target.tag == tag && (c.tag == "ref" || c.attr("name").is_none()) {
+            if !c.attr("name").is_none_or(|n| n == tag) {
+                continue;
+            }
+            let target = if c.tag == "ref" { self.resolve(c)? } else { c };
+            if target.tag == tag {
                 self.used[i].set(true);
                 out.push(target);
             }

@@ -10,7 +10,7 @@ use crate::echo::echo;
 use crate::geometry::{within_bounds, Geometry, Mesh, Quad, Sphere};
 use crate::math::Vec2;
 use crate::scene::mesh_io::{
-    drop_degenerate_grouped, read_mesh, MaterialGroups, MeshError, MeshFile,
+    drop_degenerate_grouped, read_mesh, read_serialized, MaterialGroups, MeshError, MeshFile,
 };
 use crate::scene::obj_materials::obj_parts;
 use crate::scene::{Opacity, SceneError, Shape, Texture, UvTransform};
@@ -30,7 +30,7 @@ impl<'e> Builder<'e, '_> {
         // An OBJ file's own materials, used when the shape gives no BSDF.
         let mut own_materials = None;
         let geometry = match e.kind() {
-            "obj" | "ply" => match self.mesh_file(&props, &m)? {
+            "obj" | "ply" | "serialized" => match self.mesh_file(&props, &m)? {
                 Some((mesh, path, groups)) => {
                     own_materials = (!groups.is_empty()).then_some((path, groups));
                     Geometry::Mesh(mesh)
@@ -119,7 +119,7 @@ impl<'e> Builder<'e, '_> {
             mut mesh,
             mut notes,
             mut groups,
-        } = match read_mesh(&path) {
+        } = match read_shape_mesh(props, &path)? {
             Ok(read) => read,
             Err(MeshError::NoArea { .. }) => {
                 self.no_area.push(echo(name));
@@ -352,4 +352,20 @@ fn flipped(g: Geometry) -> Geometry {
         },
         other => other,
     }
+}
+
+/// The mesh file of an `obj`, `ply` or `serialized` shape (of the latter,
+/// mesh `shape_index`).
+fn read_shape_mesh(props: &Props, path: &Path) -> Result<Result<MeshFile, MeshError>, SceneError> {
+    if props.elem.kind() != "serialized" {
+        return Ok(read_mesh(path));
+    }
+    let index = props.integer("shape_index")?.unwrap_or(0);
+    let index = u32::try_from(index).map_err(|_| {
+        props
+            .elem
+            .loc
+            .error(format!("`shape_index`: must be 0 or more, got {index}"))
+    })?;
+    Ok(read_serialized(path, index))
 }
