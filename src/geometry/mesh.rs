@@ -72,6 +72,7 @@ impl Mesh {
         let mut sp = self.point_at(prim, b);
         if let Some(normals) = &self.normals {
             sp.ns = shading_normal(normals, self.indices[prim as usize], b, sp.n);
+            sp.smooth = true;
         }
         sp
     }

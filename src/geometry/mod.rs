@@ -69,13 +69,22 @@ pub struct SurfacePoint {
     /// geometric normal alone decides the front side (see
     /// [`Mesh::shading_normal`]).
     pub ns: Vec3,
+    /// Whether `ns` comes from vertex normals: only then can it differ from
+    /// `n`, and only then does shading pay for the tests that need both.
+    pub smooth: bool,
 }
 
 impl SurfacePoint {
     /// A point whose shading normal is its geometric normal.
     #[inline]
     pub fn flat(p: Vec3, p_err: Vec3, n: Vec3) -> Self {
-        Self { p, p_err, n, ns: n }
+        Self {
+            p,
+            p_err,
+            n,
+            ns: n,
+            smooth: false,
+        }
     }
 }
 

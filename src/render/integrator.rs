@@ -169,7 +169,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 // Seen from below its shading hemisphere a surface scatters
                 // nothing, as Mitsuba 3's BSDFs (zero for cos θi ≤ 0 in the
                 // shading frame). Never so without vertex normals.
-                if ns.dot(wo) < 0.0 {
+                if sp.smooth && ns.dot(wo) < 0.0 {
                     break;
                 }
                 let wi = if let (Lobes::Bsdf, Some(bsdf)) = (shading.lobes, &material.bsdf) {
@@ -557,29 +557,27 @@ impl<B: Backend + ?Sized> Integrator<'_, B> {
 struct Normals {
     geometric: Vec3,
     shading: Vec3,
+    /// `SurfacePoint::smooth`: whether the two may differ.
+    smooth: bool,
 }
 
 impl Normals {
     #[inline]
     fn facing(sp: &SurfacePoint, front: bool) -> Self {
-        if front {
-            Self {
-                geometric: sp.n,
-                shading: sp.ns,
-            }
-        } else {
-            Self {
-                geometric: -sp.n,
-                shading: -sp.ns,
-            }
+        let sign = if front { 1.0 } else { -1.0 };
+        Self {
+            geometric: sign * sp.n,
+            shading: sign * sp.ns,
+            smooth: sp.smooth,
         }
     }
 
     /// Whether both normals put `w` on the same side of the surface:
-    /// always so without vertex normals.
+    /// always so without vertex normals, which the flag answers at the
+    /// cost of one branch.
     #[inline]
     fn agree(&self, w: Vec3) -> bool {
-        (self.geometric.dot(w) > 0.0) == (self.shading.dot(w) > 0.0)
+        !self.smooth || (self.geometric.dot(w) > 0.0) == (self.shading.dot(w) > 0.0)
     }
 }
 
