@@ -435,3 +435,82 @@ fn the_shading_normal_stays_on_the_side_of_the_winding() {
     assert_eq!(sp.n, Vec3::Z);
     assert!(close(sp.ns, Vec3::new(-0.6, 0.0, 0.8)), "{:?}", sp.ns);
 }
+
+#[test]
+fn mitsuba_meshes_use_file_normals_else_computed_ones_unless_face_normals() {
+    let dir = common::temp_dir("mitsuba");
+    let (p, f) = icosphere(1);
+    let mut obj: String = p
+        .iter()
+        .map(|q| format!("v {} {} {}\n", q.x, q.y, q.z))
+        .collect();
+    for t in &f {
+        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    std::fs::write(dir.join("ico.obj"), obj).unwrap();
+    std::fs::write(
+        dir.join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 1 1\nf 1//1 2//1 3//1\n",
+    )
+    .unwrap();
+    let shape = |file: &str, extra: &str| {
+        format!(r#"<shape type="obj"><string name="filename" value="{file}"/>{extra}</shape>"#)
+    };
+    let xml = format!(
+        r#"<scene version="3.0.0">
+<sensor type="perspective"><float name="fov" value="40"/>
+  <transform name="to_world"><lookat origin="0,0,5" target="0,0,0" up="0,1,0"/></transform>
+  <film type="hdrfilm"><integer name="width" value="8"/><integer name="height" value="8"/>
+  <rfilter type="box"/></film></sensor>
+<emitter type="point"><point name="position" value="0,0,3"/></emitter>
+{}
+{}
+{}
+</scene>"#,
+        shape("ico.obj", ""),
+        shape("ico.obj", r#"<boolean name="face_normals" value="true"/>"#),
+        shape("tri.obj", ""),
+    );
+    let scene = load_scene(&dir, "s.xml", &xml).unwrap();
+    let computed = mesh_of(&scene, 0);
+    let normals = computed.normals.as_ref().expect("computed normals");
+    for (q, n) in computed.positions.iter().zip(normals) {
+        assert!(q.normalize().dot(*n) > 0.999, "{q} {n}");
+    }
+    assert!(mesh_of(&scene, 1).normals.is_none(), "face_normals");
+    let file = mesh_of(&scene, 2).normals.as_ref().expect("file normals");
+    assert!(
+        file.iter()
+            .all(|n| close(*n, Vec3::new(0.0, 1.0, 1.0).normalize())),
+        "{file:?}"
+    );
+}
+
+#[test]
+fn a_bad_normal_in_a_binary_ply_names_its_byte_and_fields() {
+    let dir = common::temp_dir("binary");
+    let header = "ply\nformat binary_little_endian 1.0\nelement vertex 3\n\
+                  property float x\nproperty float y\nproperty float z\n\
+                  property float nx\nproperty float ny\nproperty float nz\n\
+                  element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    let mut data = header.as_bytes().to_vec();
+    let vertices = [
+        [0.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+        [1.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+        [0.0, 1.0, 0.0, f32::INFINITY, 0.0, 1.0],
+    ];
+    for v in vertices {
+        for x in v {
+            data.extend_from_slice(&f32::to_le_bytes(x));
+        }
+    }
+    data.push(3);
+    for i in [0i32, 1, 2] {
+        data.extend_from_slice(&i.to_le_bytes());
+    }
+    std::fs::write(dir.join("bad.ply"), data).unwrap();
+    let err = load_scene(&dir, "a.toml", &mesh_scene("bad.ply", "", 4, 1)).unwrap_err();
+    // The third record starts 2 × 24 bytes into the body.
+    let at = format!("bad.ply: byte {}: vertex 2", header.len() + 48);
+    assert!(err.contains(&at) && err.contains("nx ny nz"), "{err}");
+}
