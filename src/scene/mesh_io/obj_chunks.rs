@@ -61,7 +61,8 @@ pub(super) enum GroupStatement {
 }
 
 enum Outcome {
-    Read(Part),
+    /// Boxed: a chunk's part is large and the outcomes are moved about.
+    Read(Box<Part>),
     /// A relative index, with the counts before the chunk unknown: the
     /// chunk's counts of v, vt, vn, to read it again once they are.
     Again([usize; 3]),
@@ -214,7 +215,7 @@ fn read_chunk(d: &[u8], start: Option<[usize; 3]>) -> Outcome {
     if counting {
         Outcome::Again(counts)
     } else {
-        Outcome::Read(p)
+        Outcome::Read(Box::new(p))
     }
 }
 
@@ -425,7 +426,7 @@ pub(super) fn parse_obj_chunks(data: &[u8], chunk_bytes: usize) -> Option<MeshFi
             // An index past the count so far: `scan_obj`'s error.
             return None;
         }
-        read.push(p);
+        read.push(*p);
     }
     let groups = groups(data, &chunks, &read);
     build(read, groups)
