@@ -16,6 +16,7 @@
 //! the light-sampling pdf, so nothing is counted twice. Emitters that are
 //! not sampled are found only by hitting them and count fully.
 
+use super::normals::Normals;
 use crate::accel::Backend;
 use crate::bsdf::{Bsdf, Context};
 use crate::geometry::{PreliminaryHit, SurfacePoint};
@@ -548,36 +549,6 @@ impl<B: Backend + ?Sized> Integrator<'_, B> {
         }
         let (f_cos, pdf) = surface.eval(es.wi, cos);
         f_cos * es.radiance * (power_heuristic(pdf_light, pdf) / pdf_light)
-    }
-}
-
-/// The geometric and shading normals of a vertex, both turned to the side
-/// the path arrived from.
-#[derive(Clone, Copy)]
-struct Normals {
-    geometric: Vec3,
-    shading: Vec3,
-    /// `SurfacePoint::smooth`: whether the two may differ.
-    smooth: bool,
-}
-
-impl Normals {
-    #[inline]
-    fn facing(sp: &SurfacePoint, front: bool) -> Self {
-        let sign = if front { 1.0 } else { -1.0 };
-        Self {
-            geometric: sign * sp.n,
-            shading: sign * sp.ns,
-            smooth: sp.smooth,
-        }
-    }
-
-    /// Whether both normals put `w` on the same side of the surface:
-    /// always so without vertex normals, which the flag answers at the
-    /// cost of one branch.
-    #[inline]
-    fn agree(&self, w: Vec3) -> bool {
-        !self.smooth || (self.geometric.dot(w) > 0.0) == (self.shading.dot(w) > 0.0)
     }
 }
 
