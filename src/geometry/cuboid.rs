@@ -76,7 +76,7 @@ impl Cuboid {
         };
         let mut p_err = gamma(5) * (p.abs() + ray.origin.abs());
         p_err[axis] = 0.0;
-        SurfacePoint { p, p_err, n }
+        SurfacePoint::flat(p, p_err, n)
     }
 
     /// The position within the hit face, from its minimum corner.
@@ -133,6 +133,6 @@ impl Cuboid {
         n[axis] = if positive { 1.0 } else { -1.0 };
         let mut p_err = gamma(3) * (p.abs() + self.min.abs());
         p_err[axis] = 0.0;
-        SurfacePoint { p, p_err, n }
+        SurfacePoint::flat(p, p_err, n)
     }
 }

@@ -65,8 +65,16 @@ impl Mesh {
         intersect_triangle(self.vertices(prim), ray)
     }
 
+    /// The point of a hit, with the shading normal of the vertex normals
+    /// when the mesh has them: a mesh without pays one branch.
     pub fn surface(&self, prim: u32, hit: &PrimHit) -> SurfacePoint {
-        self.point_at(prim, Vec2::new(hit.u, hit.v))
+        let b = Vec2::new(hit.u, hit.v);
+        let mut sp = self.point_at(prim, b);
+        if let Some(normals) = &self.normals {
+            sp.ns = shading_normal(normals, self.indices[prim as usize], b, sp.n);
+            sp.smooth = true;
+        }
+        sp
     }
 
     pub fn point_at(&self, prim: u32, b: Vec2) -> SurfacePoint {
@@ -75,11 +83,7 @@ impl Mesh {
         let (a, bb, c) = (b0 * p0, b.x * p1, b.y * p2);
         let p = a + bb + c;
         let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
-        SurfacePoint {
-            p,
-            p_err: gamma(7) * (a.abs() + bb.abs() + c.abs()),
-            n,
-        }
+        SurfacePoint::flat(p, gamma(7) * (a.abs() + bb.abs() + c.abs()), n)
     }
 
     /// Per-vertex uvs interpolated at the hit, else its barycentrics.
@@ -106,11 +110,89 @@ impl Mesh {
         self.point_at(prim, uniform_triangle(u))
     }
 
-    /// Applies an affine transform to the positions.
+    /// Applies an affine transform to the positions, and its inverse
+    /// transpose to the normals (renormalised; a zero normal stays zero),
+    /// which keeps them perpendicular to the surface under a non-uniform
+    /// scale.
     pub fn transform(&mut self, m: &crate::math::Mat4) {
         for p in &mut self.positions {
             *p = m.transform_point3(*p);
         }
+        if let Some(normals) = &mut self.normals {
+            let to_normal = crate::math::Mat3::from_mat4(*m).inverse().transpose();
+            for n in normals {
+                *n = (to_normal * *n).normalize_or_zero();
+            }
+        }
+    }
+
+    /// Smooth vertex normals computed from the faces, as Mitsuba 3's
+    /// `Mesh::recompute_vertex_normals` does (Thürmer and Wüthrich 1998):
+    /// the sum of the unit normals of the faces around a vertex, each
+    /// weighted by the face's angle at the vertex, normalised. A vertex
+    /// whose faces cancel out gets a zero normal, which shading replaces
+    /// with the face normal (Mitsuba writes an arbitrary (1, 0, 0)).
+    pub fn compute_vertex_normals(&mut self) {
+        let mut sums = vec![Vec3::ZERO; self.positions.len()];
+        for &tri in &self.indices {
+            let p = tri.map(|i| self.positions[i as usize]);
+            let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+            if n == Vec3::ZERO {
+                continue;
+            }
+            for k in 0..3 {
+                let d0 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
+                let d1 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
+                sums[tri[k] as usize] += n * unit_angle(d0, d1);
+            }
+        }
+        for n in &mut sums {
+            *n = n.normalize_or_zero();
+        }
+        self.normals = Some(sums);
+    }
+}
+
+/// The angle between unit vectors, accurate near 0 and π too (Mitsuba's
+/// `unit_angle`, where an arc cosine loses precision).
+fn unit_angle(a: Vec3, b: Vec3) -> f32 {
+    if a.dot(b) < 0.0 {
+        std::f32::consts::PI - 2.0 * (0.5 * (a + b).length()).min(1.0).asin()
+    } else {
+        2.0 * (0.5 * (b - a).length()).min(1.0).asin()
+    }
+}
+
+/// The vertex normals of triangle `tri` interpolated at barycentrics `b`
+/// and normalised, on the side of the geometric normal `n`. A zero vertex
+/// normal stands in for `n` at its corner, and a zero interpolation gives
+/// `n`.
+///
+/// pbrt-v4 turns the geometric normal towards the shading normal; Mitsuba 3
+/// keeps both as they are. luz turns the shading normal instead, so the
+/// winding alone decides a triangle's front side (emission, one-sided
+/// materials, the sides of a dielectric), as it does for meshes without
+/// normals; the shading only bends within that side. A file whose normals
+/// all point against its winding is therefore shaded as its winding says.
+#[inline]
+fn shading_normal(normals: &[Vec3], tri: [u32; 3], b: Vec2, n: Vec3) -> Vec3 {
+    let corner = |i: u32| {
+        let v = normals[i as usize];
+        if v == Vec3::ZERO {
+            n
+        } else {
+            v
+        }
+    };
+    let [i0, i1, i2] = tri;
+    let ns =
+        ((1.0 - b.x - b.y) * corner(i0) + b.x * corner(i1) + b.y * corner(i2)).normalize_or_zero();
+    if ns == Vec3::ZERO {
+        n
+    } else if ns.dot(n) < 0.0 {
+        -ns
+    } else {
+        ns
     }
 }
 

@@ -64,6 +64,28 @@ pub struct SurfacePoint {
     pub p_err: Vec3,
     /// Unit geometric normal, on the shape's front side.
     pub n: Vec3,
+    /// Unit shading normal: a mesh's vertex normals interpolated at the
+    /// point, else `n`. Always in `n`'s hemisphere (`ns · n ≥ 0`), so the
+    /// geometric normal alone decides the front side (see
+    /// [`Mesh::shading_normal`]).
+    pub ns: Vec3,
+    /// Whether `ns` comes from vertex normals: only then can it differ from
+    /// `n`, and only then does shading pay for the tests that need both.
+    pub smooth: bool,
+}
+
+impl SurfacePoint {
+    /// A point whose shading normal is its geometric normal.
+    #[inline]
+    pub fn flat(p: Vec3, p_err: Vec3, n: Vec3) -> Self {
+        Self {
+            p,
+            p_err,
+            n,
+            ns: n,
+            smooth: false,
+        }
+    }
 }
 
 /// Closed set of shapes (an enum, not a trait object, in the hot path).

@@ -42,11 +42,7 @@ impl Plane {
         let p = ray.at(hit.t);
         // Snap onto the plane so that the error is that of the projection.
         let p = p - (p - self.point).dot(self.normal) * self.normal;
-        SurfacePoint {
-            p,
-            p_err: gamma(6) * (p.abs() + self.point.abs()),
-            n: self.normal,
-        }
+        SurfacePoint::flat(p, gamma(6) * (p.abs() + self.point.abs()), self.normal)
     }
 
     /// Coordinates along the plane's tangent axes.

@@ -91,10 +91,6 @@ impl Quad {
         let b = uv.x * self.e1;
         let c = uv.y * self.e2;
         let p = a + b + c;
-        SurfacePoint {
-            p,
-            p_err: gamma(7) * (a.abs() + b.abs() + c.abs()),
-            n: self.normal,
-        }
+        SurfacePoint::flat(p, gamma(7) * (a.abs() + b.abs() + c.abs()), self.normal)
     }
 }

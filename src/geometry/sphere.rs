@@ -70,7 +70,7 @@ impl Sphere {
         // Re-project onto the surface: the error then only depends on |p|.
         let p = self.center + self.radius * n;
         let p_err = gamma(5) * (p.abs() + Vec3::splat(self.radius));
-        SurfacePoint { p, p_err, n }
+        SurfacePoint::flat(p, p_err, n)
     }
 
     /// Equirectangular coordinates of the normal's direction.
@@ -136,10 +136,6 @@ impl Sphere {
     }
 
     fn point(&self, p: Vec3, n: Vec3) -> SurfacePoint {
-        SurfacePoint {
-            p,
-            p_err: gamma(5) * (p.abs() + Vec3::splat(self.radius)),
-            n,
-        }
+        SurfacePoint::flat(p, gamma(5) * (p.abs() + Vec3::splat(self.radius)), n)
     }
 }

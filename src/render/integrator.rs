@@ -16,6 +16,7 @@
 //! the light-sampling pdf, so nothing is counted twice. Emitters that are
 //! not sampled are found only by hitting them and count fully.
 
+use super::normals::Normals;
 use crate::accel::Backend;
 use crate::bsdf::{Bsdf, Context};
 use crate::geometry::{PreliminaryHit, SurfacePoint};
@@ -161,15 +162,23 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 if material.one_sided && cos_o <= 0.0 {
                     break;
                 }
-                // Shading normal on the side of the outgoing direction.
+                // The geometric side decides entering or leaving; the
+                // shading normal, on that side, orients the lobes.
                 let entering = cos_o > 0.0;
-                let ns = if entering { sp.n } else { -sp.n };
-                if let (Lobes::Bsdf, Some(bsdf)) = (shading.lobes, &material.bsdf) {
+                let normals = Normals::facing(&sp, entering);
+                let ns = normals.shading;
+                // Seen from below its shading hemisphere a surface scatters
+                // nothing, as Mitsuba 3's BSDFs (zero for cos θi ≤ 0 in the
+                // shading frame). Never so without vertex normals.
+                if sp.smooth && ns.dot(wo) < 0.0 {
+                    break;
+                }
+                let wi = if let (Lobes::Bsdf, Some(bsdf)) = (shading.lobes, &material.bsdf) {
                     let Some(next) = self.bsdf_vertex(
                         bsdf,
                         &hit,
                         &sp,
-                        ns,
+                        normals,
                         wo,
                         depth,
                         lobe_number,
@@ -197,8 +206,8 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                     match lobe {
                         Lobe::Diffuse => {
                             beta /= p;
-                            radiance +=
-                                beta * self.direct(&sp, ns, &Lambert(k), depth, sampler, counts);
+                            radiance += beta
+                                * self.direct(&sp, normals, &Lambert(k), depth, sampler, counts);
                             let frame = Frame::from_normal(ns);
                             let u = sampler.get_2d(vertex, Dimension::Direction);
                             let local = cosine_hemisphere(u);
@@ -224,7 +233,16 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                             refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
                         }
                     }
+                };
+                // A direction the shading normal sends to the other side of
+                // the surface than the geometric normal does would leak
+                // light through it: the path ends there (Mitsuba 0.6's
+                // strict normals; light sampling drops such directions too,
+                // in `direct`, so both strategies of MIS agree).
+                if !normals.agree(wi) {
+                    break;
                 }
+                wi
             };
             if beta.is_nan() || beta.max_element() <= 0.0 {
                 break;
@@ -364,7 +382,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         bsdf: &Bsdf,
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
-        ns: Vec3,
+        normals: Normals,
         wo: Vec3,
         depth: u32,
         lobe_number: Option<f32>,
@@ -384,7 +402,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             diffuse,
             front: sp.n.dot(wo) > 0.0,
         };
-        let frame = Frame::from_normal(ns);
+        let frame = Frame::from_normal(normals.shading);
         let wo_local = frame.to_local(wo);
         let mut u_lobe = lobe_number.unwrap_or_else(|| sampler.get_1d(vertex, Dimension::Lobe));
         if self.settings.russian_roulette {
@@ -403,7 +421,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 wo: wo_local,
                 ctx,
             };
-            *radiance += *beta * self.direct(sp, ns, &glossy, depth, sampler, counts);
+            *radiance += *beta * self.direct(sp, normals, &glossy, depth, sampler, counts);
         }
         let u = sampler.get_2d(vertex, Dimension::Direction);
         let s = bsdf.sample(wo_local, u_lobe, u, &ctx)?;
@@ -416,10 +434,11 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
 
     /// Light reaching `sp` from point lights and sampled emitters, times
     /// `surface`'s f·cos; area lights MIS-weighted against its pdf.
+    /// Directions on which the two normals disagree get no light.
     fn direct(
         &self,
         sp: &SurfacePoint,
-        ns: Vec3,
+        normals: Normals,
         surface: &impl Reflector,
         depth: u32,
         sampler: &mut Sampler,
@@ -434,8 +453,8 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         for light in &scene.point_lights {
             let to_light = light.position - sp.p;
             let d2 = to_light.length_squared();
-            let cos = ns.dot(to_light);
-            if !surface.reaches(cos) || d2 == 0.0 {
+            let cos = normals.shading.dot(to_light);
+            if !surface.reaches(cos) || !normals.agree(to_light) || d2 == 0.0 {
                 continue;
             }
             let mut falloff = 1.0;
@@ -446,7 +465,8 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                     continue;
                 }
             }
-            let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, ns);
+            // The light's end has no error: its normal does not matter.
+            let ray = spawn_ray_to(sp.p, sp.p_err, sp.n, light.position, Vec3::ZERO, sp.n);
             counts.shadow += 1;
             if !self.backend.occluded(&ray) {
                 let d = d2.sqrt();
@@ -465,7 +485,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             };
             let u = sampler.get_2d(vertex, Dimension::LightPoint);
             if u_pick < self.env_share {
-                sum += self.direct_environment(sp, ns, surface, u, counts);
+                sum += self.direct_environment(sp, normals, surface, u, counts);
                 return sum;
             }
             let area_share = 1.0 - self.env_share;
@@ -476,9 +496,13 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 let w = ls.point.p - sp.p;
                 let d = w.length();
                 let wi = w / d;
-                let cos = ns.dot(wi);
+                let cos = normals.shading.dot(wi);
                 let pdf_light = ls.pdf * area_share;
-                if surface.reaches(cos) && ls.point.n.dot(-wi) > 0.0 && pdf_light > 0.0 {
+                if surface.reaches(cos)
+                    && normals.agree(wi)
+                    && ls.point.n.dot(-wi) > 0.0
+                    && pdf_light > 0.0
+                {
                     let ray =
                         spawn_ray_to(sp.p, sp.p_err, sp.n, ls.point.p, ls.point.p_err, ls.point.n);
                     counts.shadow += 1;
@@ -500,7 +524,7 @@ impl<B: Backend + ?Sized> Integrator<'_, B> {
     fn direct_environment(
         &self,
         sp: &SurfacePoint,
-        ns: Vec3,
+        normals: Normals,
         surface: &impl Reflector,
         u: Vec2,
         counts: &mut RayCounts,
@@ -511,9 +535,9 @@ impl<B: Backend + ?Sized> Integrator<'_, B> {
         let Some(es) = env.sample(u) else {
             return Rgb::ZERO;
         };
-        let cos = ns.dot(es.wi);
+        let cos = normals.shading.dot(es.wi);
         let pdf_light = es.pdf * self.env_share;
-        if !surface.reaches(cos) || pdf_light <= 0.0 {
+        if !surface.reaches(cos) || !normals.agree(es.wi) || pdf_light <= 0.0 {
             return Rgb::ZERO;
         }
         counts.shadow += 1;

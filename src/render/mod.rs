@@ -6,6 +6,7 @@
 pub mod adaptive;
 pub mod film;
 pub mod integrator;
+mod normals;
 
 pub use adaptive::Sampling;
 pub use film::{Film, PixelPlan, PixelSum};

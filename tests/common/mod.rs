@@ -2,6 +2,8 @@
 //! its own that uses only some of them, hence `allow(dead_code)`.
 #![allow(dead_code)]
 
+pub mod meshes;
+
 use std::path::PathBuf;
 use std::process::{Command, Output};
 

@@ -154,9 +154,24 @@ pub(super) struct ShapeDesc {
     pub(super) scale: Option<Scale>,
     pub(super) rotate: Option<[f32; 3]>,
     pub(super) translate: Option<[f32; 3]>,
+    pub(super) normals: Option<MeshNormals>,
     // texture mapping
     pub(super) texture_scale: Option<[f32; 2]>,
     pub(super) texture_offset: Option<[f32; 2]>,
+}
+
+/// A mesh's shading normals.
+#[derive(Deserialize, Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub(super) enum MeshNormals {
+    /// The file's vertex normals where it has them, else flat.
+    #[default]
+    File,
+    /// The face normals, whatever the file holds.
+    Flat,
+    /// The file's vertex normals, else normals computed from the faces as
+    /// Mitsuba computes them ([`Mesh::compute_vertex_normals`]).
+    Smooth,
 }
 
 #[derive(Deserialize, Clone, Copy)]

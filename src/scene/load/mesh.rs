@@ -99,6 +99,12 @@ impl Ctx<'_> {
                 ));
             }
         }
+        match sd.normals.unwrap_or_default() {
+            MeshNormals::File => {}
+            MeshNormals::Flat => mesh.normals = None,
+            MeshNormals::Smooth if mesh.normals.is_none() => mesh.compute_vertex_normals(),
+            MeshNormals::Smooth => {}
+        }
         if sd.material.is_some() && !groups.is_empty() {
             notes.push(format!(
                 "the materials its faces ask for (`usemtl`, {}) are not used: the shape's `material` applies to every face",

@@ -16,7 +16,7 @@ impl Ctx<'_> {
             "quad" => &["corners"],
             "cuboid" => &["min", "max"],
             "triangle" => &["vertices", "uvs"],
-            "mesh" => &["file", "scale", "rotate", "translate"],
+            "mesh" => &["file", "scale", "rotate", "translate", "normals"],
             other => {
                 return Err(self.field_error(
                     span,
@@ -42,6 +42,7 @@ impl Ctx<'_> {
             ("scale", sd.scale.is_some()),
             ("rotate", sd.rotate.is_some()),
             ("translate", sd.translate.is_some()),
+            ("normals", sd.normals.is_some()),
         ];
         for (field, is_set) in present {
             if is_set && !used.contains(&field) {

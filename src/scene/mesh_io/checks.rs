@@ -23,6 +23,31 @@ pub(super) fn check_finite(p: Vec3, uv: Option<Vec2>, vertex: usize) -> Result<(
     Ok(())
 }
 
+/// Fails for a vertex normal that is not finite; `fields` names them as
+/// the file does.
+pub(super) fn check_finite_normal(n: Vec3, vertex: usize, fields: &str) -> Result<(), String> {
+    if n.is_finite() {
+        return Ok(());
+    }
+    Err(format!(
+        "vertex {vertex}: normal ({fields}) must be finite, got ({}, {}, {})",
+        n.x, n.y, n.z
+    ))
+}
+
+/// The note on an OBJ file whose faces give normals at some corners only:
+/// the mesh is shaded flat.
+pub(super) const NORMALS_DROPPED: &str = "vertex normals dropped: not every face has them";
+
+/// The note on a mesh's vertex normals of zero length, if it has any:
+/// shading takes the face normal at such a vertex's corners.
+pub(super) fn zero_normals_note(normals: Option<&[Vec3]>) -> Option<String> {
+    let zero = normals?.iter().filter(|n| **n == Vec3::ZERO).count();
+    (zero > 0).then(|| {
+        format!("{zero} vertex normals of zero length: the face normal stands in at their corners")
+    })
+}
+
 /// A list for a note, cut after the first few items.
 pub(super) fn summarize(items: &[String]) -> String {
     const SHOWN: usize = 8;

@@ -12,8 +12,10 @@
 //! the serial reader deciding whatever a chunk cannot: the mesh and every
 //! error are the serial reader's.
 //!
-//! Polygons are fan-triangulated. Elements and properties the renderer does
-//! not use (normals, colours, confidence, ...) are skipped, and so are
+//! Polygons are fan-triangulated. Vertex normals (PLY `nx ny nz`, OBJ `vn`)
+//! are read as unit vectors; a non-finite one is an error at its line or
+//! record. Elements and properties the renderer does not use (colours,
+//! confidence, ...) are skipped, and so are
 //! degenerate triangles; both are summed up in one note per file (see
 //! [`read_mesh`]). A file that contradicts its header or the format (data
 //! after the declared elements, a face of two vertices, an index of 0) is an

@@ -1,7 +1,10 @@
 //! Wavefront OBJ through `tobj`, its objects merged into one mesh, with
 //! the errors `tobj` reports without a line located by [`scan_obj`].
 
-use super::checks::{check_finite, drop_degenerate_grouped, dropped_note, summarize};
+use super::checks::{
+    check_finite, drop_degenerate_grouped, dropped_note, summarize, zero_normals_note,
+    NORMALS_DROPPED,
+};
 use super::chunks::CHUNK_BYTES;
 use super::fail::{fail, fail_at, no_triangles, Fail};
 use super::obj_chunks::parse_obj_chunks;
@@ -45,7 +48,12 @@ fn parse_obj_serial(data: &[u8]) -> Result<MeshFile, Fail> {
         && models
             .iter()
             .all(|m| m.mesh.texcoords.len() / 2 == m.mesh.positions.len() / 3);
-    let mut mesh = merge(text, &models, with_uv)?;
+    let any_normal = models.iter().any(|m| !m.mesh.normals.is_empty());
+    let with_normals = any_normal
+        && models
+            .iter()
+            .all(|m| m.mesh.normals.len() == m.mesh.positions.len());
+    let mut mesh = merge(text, &models, with_uv, with_normals)?;
     check_all_finite(text, &mesh)?;
     let triangles = mesh.indices.len();
     // The scan counts the faces `tobj` triangulates, one by one.
@@ -74,9 +82,13 @@ fn parse_obj_serial(data: &[u8]) -> Result<MeshFile, Fail> {
     if any_uv && !with_uv {
         notes.push("texture coordinates dropped: not every face has them".into());
     }
+    if any_normal && !with_normals {
+        notes.push(NORMALS_DROPPED.into());
+    }
     if dropped > 0 {
         notes.push(dropped_note(dropped, triangles));
     }
+    notes.extend(zero_normals_note(mesh.normals.as_deref()));
     Ok(MeshFile {
         mesh,
         notes,
@@ -91,14 +103,23 @@ fn located(text: &str, otherwise: impl FnOnce() -> Fail) -> Fail {
 }
 
 /// One mesh of `tobj`'s models, each indexing its own vertices, with
-/// texture coordinates when `with_uv`.
-fn merge(text: &str, models: &[tobj::Model], with_uv: bool) -> Result<Mesh, Fail> {
+/// texture coordinates when `with_uv` and unit normals when `with_normals`.
+fn merge(
+    text: &str,
+    models: &[tobj::Model],
+    with_uv: bool,
+    with_normals: bool,
+) -> Result<Mesh, Fail> {
     let mut mesh = Mesh {
         uvs: with_uv.then(Vec::new),
+        normals: with_normals.then(Vec::new),
         ..Default::default()
     };
     for m in models {
         let m = &m.mesh;
+        if m.normals.iter().any(|x| !x.is_finite()) {
+            return Err(located(text, || fail("OBJ: a vertex normal is not finite")));
+        }
         let base = mesh.positions.len();
         let n = m.positions.len() / 3;
         if base + n > u32::MAX as usize {
@@ -111,6 +132,13 @@ fn merge(text: &str, models: &[tobj::Model], with_uv: bool) -> Result<Mesh, Fail
         );
         if let Some(uvs) = &mut mesh.uvs {
             uvs.extend(m.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], t[1])));
+        }
+        if let Some(normals) = &mut mesh.normals {
+            normals.extend(
+                m.normals
+                    .chunks_exact(3)
+                    .map(|n| Vec3::new(n[0], n[1], n[2]).normalize_or_zero()),
+            );
         }
         for t in m.indices.chunks_exact(3) {
             let tri = [t[0], t[1], t[2]];

@@ -30,7 +30,7 @@ pub(super) const MAX_UNUSED_KEYWORDS: usize = 32;
 pub(super) struct Part {
     pub(super) positions: Vec<Vec3>,
     pub(super) texcoords: Vec<Vec2>,
-    pub(super) normals: usize,
+    pub(super) normals: Vec<Vec3>,
     /// Per triangle, the position index of each corner, and the texture
     /// coordinate and normal indices once a corner has one.
     pub(super) tri_v: Vec<[u32; 3]>,
@@ -61,7 +61,8 @@ pub(super) enum GroupStatement {
 }
 
 enum Outcome {
-    Read(Part),
+    /// Boxed: a chunk's part is large and the outcomes are moved about.
+    Read(Box<Part>),
     /// A relative index, with the counts before the chunk unknown: the
     /// chunk's counts of v, vt, vn, to read it again once they are.
     Again([usize; 3]),
@@ -205,7 +206,7 @@ fn read_chunk(d: &[u8], start: Option<[usize; 3]>) -> Outcome {
             Err(Stop::Bail) => return Outcome::Bail,
             Err(Stop::Relative) => {
                 counting = true;
-                counts = [p.positions.len(), p.texcoords.len(), p.normals];
+                counts = [p.positions.len(), p.texcoords.len(), p.normals.len()];
                 // The line is a face: it counts nothing.
             }
         }
@@ -214,7 +215,7 @@ fn read_chunk(d: &[u8], start: Option<[usize; 3]>) -> Outcome {
     if counting {
         Outcome::Again(counts)
     } else {
-        Outcome::Read(p)
+        Outcome::Read(Box::new(p))
     }
 }
 
@@ -242,13 +243,12 @@ fn statement(
                 .push(Vec2::new(float(c.word())?, float(c.word())?));
         }
         b"vn" => {
-            for _ in 0..3 {
-                c.word()
-                    .and_then(|w| parse_float(w, Ty::F32))
-                    .ok_or(Stop::Bail)?;
-            }
-            p.normals += 1;
-            count_unused(&mut p.unused, kw)?;
+            // A normal that is not finite is the serial reader's error.
+            p.normals.push(Vec3::new(
+                float(c.word())?,
+                float(c.word())?,
+                float(c.word())?,
+            ));
         }
         b"f" => face(c, start, p)?,
         b"o" | b"g" => {
@@ -301,7 +301,7 @@ fn group_statement(c: &mut Cursor, kw: &[u8], line_start: usize, p: &mut Part) -
 /// Reads a face's corners into fan triangles.
 #[inline]
 fn face(c: &mut Cursor, start: Option<[usize; 3]>, p: &mut Part) -> Result<(), Stop> {
-    let here = [p.positions.len(), p.texcoords.len(), p.normals];
+    let here = [p.positions.len(), p.texcoords.len(), p.normals.len()];
     let mut first = [MISSING; 3];
     let mut prev = [MISSING; 3];
     let mut n = 0;
@@ -392,7 +392,7 @@ pub(super) fn parse_obj_chunks(data: &[u8], chunk_bytes: usize) -> Option<MeshFi
         })
         .collect();
     let counts = |o: &Outcome| match o {
-        Outcome::Read(p) => Some([p.positions.len(), p.texcoords.len(), p.normals]),
+        Outcome::Read(p) => Some([p.positions.len(), p.texcoords.len(), p.normals.len()]),
         Outcome::Again(c) => Some(*c),
         Outcome::Bail => None,
     };
@@ -426,7 +426,7 @@ pub(super) fn parse_obj_chunks(data: &[u8], chunk_bytes: usize) -> Option<MeshFi
             // An index past the count so far: `scan_obj`'s error.
             return None;
         }
-        read.push(p);
+        read.push(*p);
     }
     let groups = groups(data, &chunks, &read);
     build(read, groups)

@@ -1,7 +1,9 @@
 //! The chunks of [`super::obj_chunks`] joined into one mesh, as `tobj`
 //! and [`super::obj`] make it, with the material groups of its faces.
 
-use super::checks::{drop_degenerate_grouped, dropped_note, summarize};
+use super::checks::{
+    drop_degenerate_grouped, dropped_note, summarize, zero_normals_note, NORMALS_DROPPED,
+};
 use super::chunks::{lines_before, newlines};
 use super::groups::GroupsBuilder;
 use super::obj_chunks::{GroupStatement, Part, MAX_UNUSED_KEYWORDS, MISSING};
@@ -47,6 +49,7 @@ pub(super) fn build(parts: Vec<Part>, groups: GroupsBuilder) -> Option<MeshFile>
     let all = |f: fn(&Part) -> usize| parts.iter().map(f).sum::<usize>();
     let mut pos = Vec::with_capacity(all(|p| p.positions.len()));
     let mut tex = Vec::with_capacity(all(|p| p.texcoords.len()));
+    let mut nor = Vec::with_capacity(all(|p| p.normals.len()));
     let triangles = all(|p| p.tri_v.len());
     // Model boundaries: an `o` or `g` after at least one face since the last.
     let mut boundaries = Vec::new();
@@ -55,6 +58,7 @@ pub(super) fn build(parts: Vec<Part>, groups: GroupsBuilder) -> Option<MeshFile>
     for p in &parts {
         pos.extend_from_slice(&p.positions);
         tex.extend_from_slice(&p.texcoords);
+        nor.extend_from_slice(&p.normals);
         boundaries.extend(p.breaks.iter().map(|b| b + offset));
         offset += p.tri_v.len();
         for (kw, n) in &p.unused {
@@ -77,7 +81,9 @@ pub(super) fn build(parts: Vec<Part>, groups: GroupsBuilder) -> Option<MeshFile>
     let mut next_boundary = boundaries.iter().peekable();
     let mut positions = Vec::with_capacity(pos.len());
     let mut uvs = Vec::new();
+    let mut normals = Vec::new();
     let mut with_vt = 0usize;
+    let mut with_vn = 0usize;
     let mut indices = Vec::with_capacity(triangles);
     let mut t = 0usize;
     for p in &parts {
@@ -121,6 +127,10 @@ pub(super) fn build(parts: Vec<Part>, groups: GroupsBuilder) -> Option<MeshFile>
                             with_vt += 1;
                             uvs.push(tex[vt as usize]);
                         }
+                        if vn != MISSING {
+                            with_vn += 1;
+                            normals.push(nor[vn as usize].normalize_or_zero());
+                        }
                         i
                     }
                 };
@@ -129,14 +139,16 @@ pub(super) fn build(parts: Vec<Part>, groups: GroupsBuilder) -> Option<MeshFile>
             t += 1;
         }
     }
-    drop((pos, tex, first, more));
+    drop((pos, tex, nor, first, more));
     let any_uv = with_vt > 0;
     let with_uv = any_uv && with_vt == positions.len();
+    let any_normal = with_vn > 0;
+    let with_normals = any_normal && with_vn == positions.len();
     let mut mesh = Mesh {
         positions,
         indices,
         uvs: with_uv.then_some(uvs),
-        normals: None,
+        normals: with_normals.then_some(normals),
     };
     let mut groups = groups.finish(triangles);
     let dropped = drop_degenerate_grouped(&mesh.positions, &mut mesh.indices, &mut groups);
@@ -154,9 +166,13 @@ pub(super) fn build(parts: Vec<Part>, groups: GroupsBuilder) -> Option<MeshFile>
     if any_uv && !with_uv {
         notes.push("texture coordinates dropped: not every face has them".into());
     }
+    if any_normal && !with_normals {
+        notes.push(NORMALS_DROPPED.into());
+    }
     if dropped > 0 {
         notes.push(dropped_note(dropped, triangles));
     }
+    notes.extend(zero_normals_note(mesh.normals.as_deref()));
     Some(MeshFile {
         mesh,
         notes,

@@ -55,8 +55,15 @@ pub(super) fn scan_obj(text: &str, numbers: bool, seen: &mut Seen) -> Option<Fai
                 nvt += 1;
             }
             Some("vn") => {
+                if words.clone().count() < 3 {
+                    return Some(fail_at(no, 1, "vertex normal needs 3 numbers"));
+                }
+                if numbers {
+                    if let Some(f) = check_floats(line, no, words, "vertex normal", 3) {
+                        return Some(f);
+                    }
+                }
                 nvn += 1;
-                count_unused(&mut seen.unused, "vn");
             }
             Some("f") => {
                 let corners = words.clone().count();

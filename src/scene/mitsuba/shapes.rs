@@ -25,7 +25,8 @@ impl<'e> Builder<'e, '_> {
         let props = Props::new(e, self.ids);
         let m = props.transform("to_world")?.unwrap_or(DMat4::IDENTITY);
         let flip = props.boolean("flip_normals")?.unwrap_or(false);
-        // luz shades with the geometric normal, which is what this asks.
+        // Mitsuba's cube and disk are flat-shaded whatever it says, as
+        // luz's are; obj and ply read it in `mesh_file`.
         props.accept("face_normals");
         // An OBJ file's own materials, used when the shape gives no BSDF.
         let mut own_materials = None;
@@ -147,9 +148,13 @@ impl<'e> Builder<'e, '_> {
                 ));
             }
         }
-        // Mitsuba's loaders read normals and uvs luz may not use; which
-        // ones is said by the mesh reader.
-        props.accept("face_normals");
+        // As Mitsuba: the file's vertex normals, else normals computed from
+        // the faces once placed, unless `face_normals` asks for flat shading.
+        if props.boolean("face_normals")?.unwrap_or(false) {
+            mesh.normals = None;
+        } else if mesh.normals.is_none() {
+            mesh.compute_vertex_normals();
+        }
         if !groups.is_empty() && !props.objects("bsdf")?.is_empty() {
             notes.push(format!(
                 "the materials its faces ask for (`usemtl`, {}) are not used: the shape's <bsdf> applies to every face",

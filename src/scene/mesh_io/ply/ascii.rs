@@ -316,7 +316,7 @@ fn record<const LINES: bool>(
     is_vertex: bool,
     out: &mut Builder,
 ) -> Result<(), Fail> {
-    let mut v = [0f32; 5];
+    let mut v = [0f32; 8];
     // Where the record's values start, for a non-finite vertex.
     let mut at = None;
     for (prop, &role) in el.props.iter().zip(roles) {
@@ -418,13 +418,16 @@ mod tests {
         let p = plan(&h.elements, h.body_line - 1).unwrap();
         let body = &data[h.body..];
         let (nv, nf) = (h.elements[p.vertex].count, h.elements[p.face].count);
-        let mut out = Builder::new(nv, nf, p.has_uv, body.len());
+        let mut out = Builder::new(nv, nf, &p, body.len());
         let r = match chunk {
             None => serial_body(body, h.body_line, &h.elements, &p.roles, &mut out),
             Some(c) => chunked_body(body, h.body_line, &h.elements, &p.roles, &mut out, c),
         };
         match r {
-            Ok(()) => format!("{:?} {:?} {:?}", out.positions, out.uvs, out.indices),
+            Ok(()) => format!(
+                "{:?} {:?} {:?} {:?}",
+                out.positions, out.uvs, out.normals, out.indices
+            ),
             Err(f) => format!("{f:?}"),
         }
     }
@@ -437,7 +440,7 @@ mod tests {
         let p = plan(&h.elements, h.body_line - 1).unwrap();
         let body = &data[h.body..];
         let (nv, nf) = (h.elements[p.vertex].count, h.elements[p.face].count);
-        let mut out = Builder::new(nv, nf, p.has_uv, body.len());
+        let mut out = Builder::new(nv, nf, &p, body.len());
         parallel_body(body, h.body_line, &h.elements, &p.roles, &mut out, chunk).is_some()
     }
 

@@ -1,15 +1,17 @@
 //! The mesh a PLY body's records are read into.
 
+use super::plan::{Plan, Vertex};
 use crate::math::{Vec2, Vec3};
 use crate::memory;
 use crate::meter::Step;
-use crate::scene::mesh_io::checks::check_finite;
+use crate::scene::mesh_io::checks::{check_finite, check_finite_normal};
 use rayon::prelude::*;
 use std::mem::MaybeUninit;
 
 pub(super) struct Builder {
     pub(super) positions: Vec<Vec3>,
     pub(super) uvs: Option<Vec<Vec2>>,
+    pub(super) normals: Option<Vec<Vec3>>,
     pub(super) indices: Vec<[u32; 3]>,
     nv: u32,
     poly: Vec<u32>,
@@ -21,11 +23,16 @@ pub(super) struct Builder {
 impl Builder {
     /// A builder for `nv` vertices (`nv` ≤ `u32::MAX`, checked by the plan)
     /// and `nf` faces from a body of `body_len` bytes.
-    pub(super) fn new(nv: usize, nf: usize, has_uv: bool, body_len: usize) -> Builder {
+    pub(super) fn new(nv: usize, nf: usize, plan: &Plan, body_len: usize) -> Builder {
         // Counts come from the file; never reserve more than the body could hold.
         Builder {
             positions: memory::vec_with_capacity(nv.min(body_len / 3)),
-            uvs: has_uv.then(|| memory::vec_with_capacity(nv.min(body_len / 5))),
+            uvs: plan
+                .has_uv
+                .then(|| memory::vec_with_capacity(nv.min(body_len / 5))),
+            normals: plan
+                .has_normals
+                .then(|| memory::vec_with_capacity(nv.min(body_len / 6))),
             indices: memory::vec_with_capacity(nf.min(body_len / 4)),
             nv: nv as u32,
             poly: Vec::new(),
@@ -40,6 +47,7 @@ impl Builder {
         Builder {
             positions: Vec::with_capacity(vertices),
             uvs: self.uvs.as_ref().map(|_| Vec::with_capacity(vertices)),
+            normals: self.normals.as_ref().map(|_| Vec::with_capacity(vertices)),
             indices: Vec::with_capacity(faces),
             nv: self.nv,
             poly: Vec::new(),
@@ -53,17 +61,25 @@ impl Builder {
         if let (Some(uvs), Some(more)) = (&mut self.uvs, &part.uvs) {
             uvs.extend_from_slice(more);
         }
+        if let (Some(normals), Some(more)) = (&mut self.normals, &part.normals) {
+            normals.extend_from_slice(more);
+        }
         self.indices.extend_from_slice(&part.indices);
     }
 
-    pub(super) fn vertex(&mut self, v: [f32; 5]) -> Result<(), String> {
+    pub(super) fn vertex(&mut self, v: Vertex) -> Result<(), String> {
         let p = Vec3::new(v[0], v[1], v[2]);
         let uv = Vec2::new(v[3], v[4]);
+        let normal = Vec3::new(v[5], v[6], v[7]);
         let n = self.base + self.positions.len();
         check_finite(p, self.uvs.is_some().then_some(uv), n)?;
         self.positions.push(p);
         if let Some(uvs) = &mut self.uvs {
             uvs.push(uv);
+        }
+        if let Some(normals) = &mut self.normals {
+            check_finite_normal(normal, n, "nx ny nz")?;
+            normals.push(normal.normalize_or_zero());
         }
         Ok(())
     }
@@ -75,7 +91,9 @@ impl Builder {
     /// reserved positions: no serial clearing, copy and scan of hundreds of
     /// megabytes.
     pub(super) fn packed_positions(&mut self, records: &[u8]) -> Result<(), (usize, String)> {
-        debug_assert!(self.uvs.is_none() && records.len().is_multiple_of(12));
+        debug_assert!(
+            self.uvs.is_none() && self.normals.is_none() && records.len().is_multiple_of(12)
+        );
         let first = self.positions.len();
         let count = records.len() / 12;
         self.positions.reserve_exact(count);

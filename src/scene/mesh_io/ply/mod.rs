@@ -12,7 +12,7 @@ mod triangles;
 pub(super) use header::{parse_header, Format, Header, Kind, Ty};
 pub(super) use numbers::parse_float;
 
-use super::checks::{drop_degenerate, dropped_note, summarize};
+use super::checks::{drop_degenerate, dropped_note, summarize, zero_normals_note};
 use super::fail::{fail_byte, no_triangles, short, Fail};
 use super::Noted;
 use crate::echo::echo;
@@ -23,25 +23,26 @@ use plan::{plan, Plan, Role};
 
 pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
     let header = parse_header(data)?;
+    let plan = plan(&header.elements, header.body_line - 1)?;
+    let body = &data[header.body..];
     let Plan {
-        roles,
-        has_uv,
+        ref roles,
         vertex,
         face,
-    } = plan(&header.elements, header.body_line - 1)?;
-    let body = &data[header.body..];
+        ..
+    } = plan;
     let nv = header.elements[vertex].count;
     let (nf, face_line) = (header.elements[face].count, header.elements[face].line);
-    let mut out = Builder::new(nv, nf, has_uv, body.len());
+    let mut out = Builder::new(nv, nf, &plan, body.len());
     match header.format {
         Format::Ascii => {
-            ascii::ascii_body(body, header.body_line, &header.elements, &roles, &mut out)?
+            ascii::ascii_body(body, header.body_line, &header.elements, roles, &mut out)?
         }
         Format::BinaryLe => {
-            binary::binary_body::<false>(data, header.body, &header.elements, &roles, &mut out)?
+            binary::binary_body::<false>(data, header.body, &header.elements, roles, &mut out)?
         }
         Format::BinaryBe => {
-            binary::binary_body::<true>(data, header.body, &header.elements, &roles, &mut out)?
+            binary::binary_body::<true>(data, header.body, &header.elements, roles, &mut out)?
         }
     }
     let triangles = out.indices.len();
@@ -49,7 +50,7 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
     if out.indices.is_empty() {
         return Err(no_triangles(face_line, 1, triangles));
     }
-    let unused = unused(&header.elements, &roles, vertex, face);
+    let unused = unused(&header.elements, roles, vertex, face);
     let mut notes = Vec::new();
     if !unused.is_empty() {
         notes.push(format!("not used: {}", summarize(&unused)));
@@ -57,11 +58,12 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
     if dropped > 0 {
         notes.push(dropped_note(dropped, triangles));
     }
+    notes.extend(zero_normals_note(out.normals.as_deref()));
     let mesh = Mesh {
         positions: out.positions,
         indices: out.indices,
         uvs: out.uvs,
-        normals: None,
+        normals: out.normals,
     };
     Ok((mesh, notes))
 }

@@ -7,7 +7,8 @@ use crate::scene::mesh_io::fail::{fail_at, Fail};
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Role {
     Skip,
-    /// Position component 0..3 or texture coordinate 3..5.
+    /// Position component 0..3, texture coordinate 3..5 or normal
+    /// component 5..8 (see [`Vertex`]).
     Value(usize),
     Indices,
 }
@@ -17,6 +18,7 @@ pub(super) struct Plan {
     /// Per element, the role of each property.
     pub(super) roles: Vec<Vec<Role>>,
     pub(super) has_uv: bool,
+    pub(super) has_normals: bool,
     /// The indices of the `vertex` and `face` elements.
     pub(super) vertex: usize,
     pub(super) face: usize,
@@ -43,19 +45,25 @@ pub(super) fn plan(elements: &[Element], end_line: usize) -> Result<Plan, Fail> 
                 "the header declares no `face` element (a point cloud is not a mesh)",
             )
         })?;
-    let has_uv = vertex_roles(&elements[vi], &mut roles[vi])?;
+    let (has_uv, has_normals) = vertex_roles(&elements[vi], &mut roles[vi])?;
     roles[fi][face_indices(&elements[fi])?] = Role::Indices;
     Ok(Plan {
         roles,
         has_uv,
+        has_normals,
         vertex: vi,
         face: fi,
     })
 }
 
-/// Sets the roles of the `vertex` element's position and texture
-/// coordinates; returns whether it has the latter.
-fn vertex_roles(vertex: &Element, roles: &mut [Role]) -> Result<bool, Fail> {
+/// The values a vertex record is read into: position, texture coordinates
+/// and normal, by the component numbers of [`Role::Value`].
+pub(super) type Vertex = [f32; 8];
+
+/// Sets the roles of the `vertex` element's position, texture coordinates
+/// and normal (`nx ny nz`, all three or none); returns whether it has the
+/// texture coordinates and the normal.
+fn vertex_roles(vertex: &Element, roles: &mut [Role]) -> Result<(bool, bool), Fail> {
     if vertex.count > u32::MAX as usize {
         return Err(fail_at(
             vertex.line,
@@ -83,6 +91,13 @@ fn vertex_roles(vertex: &Element, roles: &mut [Role]) -> Result<bool, Fail> {
         })?;
         roles[i] = Role::Value(c);
     }
+    let normal = [find("nx")?, find("ny")?, find("nz")?];
+    let has_normals = normal.iter().all(Option::is_some);
+    if has_normals {
+        for (c, i) in normal.into_iter().flatten().enumerate() {
+            roles[i] = Role::Value(5 + c);
+        }
+    }
     for (u, v) in [
         ("u", "v"),
         ("s", "t"),
@@ -92,10 +107,10 @@ fn vertex_roles(vertex: &Element, roles: &mut [Role]) -> Result<bool, Fail> {
         if let (Some(iu), Some(iv)) = (find(u)?, find(v)?) {
             roles[iu] = Role::Value(3);
             roles[iv] = Role::Value(4);
-            return Ok(true);
+            return Ok((true, has_normals));
         }
     }
-    Ok(false)
+    Ok((false, has_normals))
 }
 
 /// The index of the `face` element's list of vertex indices.
