@@ -347,7 +347,7 @@ mod tests {
     }
 
     fn message(data: &[u8], index: u32) -> String {
-        read(data, index).err().expect("an error").to_string()
+        read(data, index).expect_err("an error").to_string()
     }
 
     #[test]
@@ -496,7 +496,7 @@ mod tests {
             TRIANGLE.map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
         );
         let m = &s.materials[s.shapes[0].material as usize];
-        assert_eq!(m.kd, Vec3::splat(0.25).into());
+        assert_eq!(m.kd, Vec3::splat(0.25));
         assert!(s.warnings.is_empty(), "{:?}", s.warnings);
         let _ = std::fs::remove_dir_all(&dir);
     }

@@ -61,7 +61,7 @@ impl<'e, 'i> Props<'e, 'i> {
     pub fn objects(&self, tag: &str) -> Result<Vec<&'e Elem>, SceneError> {
         let mut out = Vec::new();
         for (i, c) in self.elem.children.iter().enumerate() {
-            if !c.attr("name").is_none_or(|n| n == tag) {
+            if c.attr("name").is_some_and(|n| n != tag) {
                 continue;
             }
             let target = if c.tag == "ref" { self.resolve(c)? } else { c };
