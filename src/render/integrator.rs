@@ -16,18 +16,18 @@
 //! the light-sampling pdf, so nothing is counted twice. Emitters that are
 //! not sampled are found only by hitting them and count fully.
 
+mod lobes;
+
 use super::normals::Normals;
 use crate::accel::Backend;
 use crate::bsdf::{Bsdf, Context};
 use crate::geometry::{PreliminaryHit, SurfacePoint};
-use crate::math::{
-    fresnel_dielectric, reflect, refract, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec2, Vec3,
-};
-use crate::sampling::{cosine_hemisphere, power_heuristic, Dimension, Sampler};
+use crate::math::{spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec2, Vec3};
+use crate::sampling::{power_heuristic, Dimension, Sampler};
 
 /// The largest f32 below 1.
 const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-use crate::scene::{Lobes, Material, Opacity, Scene};
+use crate::scene::{Lobes, Opacity, Scene};
 use std::f32::consts::FRAC_1_PI;
 
 /// Settings of one integration.
@@ -58,20 +58,6 @@ impl RayCounts {
     }
 }
 
-enum Lobe {
-    Diffuse,
-    Mirror,
-    Refraction,
-}
-
-/// The lobe chosen at a vertex, the probability of that choice and the
-/// lobe's coefficient there (kd, ks or kt).
-struct Scatter {
-    lobe: Lobe,
-    p: f32,
-    k: Rgb,
-}
-
 pub struct Integrator<'a, B: Backend + ?Sized> {
     scene: &'a Scene,
     backend: &'a B,
@@ -100,7 +86,6 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     /// Radiance arriving along the camera ray `ray` (unit direction).
     pub fn li(&self, mut ray: Ray, sampler: &mut Sampler, counts: &mut RayCounts) -> Rgb {
         let scene = self.scene;
-        let max_depth = self.settings.max_depth;
         let mut radiance = Rgb::ZERO;
         let mut beta = Rgb::ONE;
         // The previous vertex, for MIS on emitter hits: position and the
@@ -109,7 +94,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         let mut prev: Option<(Vec3, f32)> = None;
         counts.camera += 1;
         let mut depth = 1;
-        while depth <= max_depth {
+        while depth <= self.settings.max_depth {
             let Some(hit) = self.backend.intersect(&ray) else {
                 if let Some(env) = &scene.environment {
                     let weight = match prev {
@@ -124,12 +109,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             };
             let sp = scene.surface(&ray, &hit);
             let shape = &scene.shapes[hit.geom as usize];
-            let material = &scene.materials[shape.material as usize];
-            let shading = scene.shading(shape.material);
-            let wo = -ray.dir;
-            let cos_o = sp.n.dot(wo);
-
-            if shading.emissive && cos_o > 0.0 {
+            if scene.shading(shape.material).emissive && sp.n.dot(ray.dir) < 0.0 {
                 let weight = match prev {
                     Some((from, pdf_bsdf)) if shape.nee => {
                         let pdf_light = (1.0 - self.env_share)
@@ -140,118 +120,93 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                     }
                     _ => 1.0,
                 };
-                radiance += beta * material.emission * weight;
+                radiance += beta * scene.materials[shape.material as usize].emission * weight;
             }
-            if depth == max_depth {
+            if depth == self.settings.max_depth {
                 break;
             }
-            // The vertex's numbers come in dimension order (`Dimension`).
-            let vertex = depth - 1;
-            // A mask is met with probability α; else the path goes on
-            // straight through the surface (`meets_mask`).
-            let lobe_number = material
-                .opacity
-                .map(|o| self.meets_mask(o, &hit, &sp, sampler, vertex));
-            let wi = if let Some(None) = lobe_number {
-                prev = None;
-                ray.dir
-            } else {
-                let lobe_number = lobe_number.flatten();
-                // Mitsuba's one-sided BSDFs are black from behind; luz's
-                // own materials reflect on both sides.
-                if material.one_sided && cos_o <= 0.0 {
-                    break;
-                }
-                // The geometric side decides entering or leaving; the
-                // shading normal, on that side, orients the lobes.
-                let entering = cos_o > 0.0;
-                let normals = Normals::facing(&sp, entering);
-                let ns = normals.shading;
-                // Seen from below its shading hemisphere a surface scatters
-                // nothing, as Mitsuba 3's BSDFs (zero for cos θi ≤ 0 in the
-                // shading frame). Never so without vertex normals.
-                if sp.smooth && ns.dot(wo) < 0.0 {
-                    break;
-                }
-                let wi = if let (Lobes::Bsdf, Some(bsdf)) = (shading.lobes, &material.bsdf) {
-                    let Some(next) = self.bsdf_vertex(
-                        bsdf,
-                        &hit,
-                        &sp,
-                        normals,
-                        wo,
-                        depth,
-                        lobe_number,
-                        sampler,
-                        counts,
-                        &mut beta,
-                        &mut radiance,
-                    ) else {
-                        break;
-                    };
-                    prev = next.pdf.map(|pdf| (sp.p, pdf));
-                    next.wi
-                } else {
-                    let Some(Scatter { lobe, p, k }) = self.choose_lobe(
-                        shape.material,
-                        &hit,
-                        &sp,
-                        cos_o,
-                        lobe_number,
-                        sampler,
-                        vertex,
-                    ) else {
-                        break;
-                    };
-                    match lobe {
-                        Lobe::Diffuse => {
-                            beta /= p;
-                            radiance += beta
-                                * self.direct(&sp, normals, &Lambert(k), depth, sampler, counts);
-                            let frame = Frame::from_normal(ns);
-                            let u = sampler.get_2d(vertex, Dimension::Direction);
-                            let local = cosine_hemisphere(u);
-                            let wi = frame.to_world(local);
-                            beta *= k;
-                            prev = Some((sp.p, local.z * FRAC_1_PI));
-                            wi
-                        }
-                        Lobe::Mirror => {
-                            beta *= k / p;
-                            prev = None;
-                            reflect(wo, ns)
-                        }
-                        Lobe::Refraction => {
-                            beta *= k / p;
-                            prev = None;
-                            let eta = if entering {
-                                material.ior
-                            } else {
-                                1.0 / material.ior
-                            };
-                            // Total internal reflection sends the light back.
-                            refract(wo, ns, eta).unwrap_or_else(|| reflect(wo, ns))
-                        }
-                    }
-                };
-                // A direction the shading normal sends to the other side of
-                // the surface than the geometric normal does would leak
-                // light through it: the path ends there (Mitsuba 0.6's
-                // strict normals; light sampling drops such directions too,
-                // in `direct`, so both strategies of MIS agree).
-                if !normals.agree(wi) {
-                    break;
-                }
-                wi
+            let path = Path {
+                beta: &mut beta,
+                radiance: &mut radiance,
+                sampler: &mut *sampler,
+                counts: &mut *counts,
+            };
+            let Some(next) = self.scatter(&ray, &hit, &sp, depth, path) else {
+                break;
             };
             if beta.is_nan() || beta.max_element() <= 0.0 {
                 break;
             }
-            ray = spawn_ray(sp.p, sp.p_err, sp.n, wi.normalize());
+            prev = next.pdf.map(|pdf| (sp.p, pdf));
+            ray = spawn_ray(sp.p, sp.p_err, sp.n, next.wi.normalize());
             counts.bounce += 1;
             depth += 1;
         }
         radiance
+    }
+
+    /// The vertex at `sp`, met by `ray` at path depth `depth`: the light
+    /// sampled there (added to the path's radiance), the direction the path
+    /// goes on in and its weight (into the path's throughput). `None` ends
+    /// the path.
+    #[inline]
+    fn scatter(
+        &self,
+        ray: &Ray,
+        hit: &PreliminaryHit,
+        sp: &SurfacePoint,
+        depth: u32,
+        path: Path,
+    ) -> Option<Continuation> {
+        let material = self.scene.material_of(hit.geom);
+        let wo = -ray.dir;
+        let cos_o = sp.n.dot(wo);
+        // The vertex's numbers come in dimension order (`Dimension`).
+        let vertex = depth - 1;
+        // A mask is met with probability α; else the path goes on
+        // straight through the surface (`meets_mask`).
+        let lobe_number = match material.opacity {
+            None => None,
+            Some(o) => match self.meets_mask(o, hit, sp, path.sampler, vertex) {
+                Some(u) => Some(u),
+                // A null interaction: straight on, as through a delta lobe.
+                None => {
+                    return Some(Continuation {
+                        wi: ray.dir,
+                        pdf: None,
+                    })
+                }
+            },
+        };
+        // Mitsuba's one-sided BSDFs are black from behind; luz's own
+        // materials reflect on both sides.
+        if material.one_sided && cos_o <= 0.0 {
+            return None;
+        }
+        // The geometric side decides entering or leaving; the shading
+        // normal, on that side, orients the lobes.
+        let normals = Normals::facing(sp, cos_o > 0.0);
+        // Seen from below its shading hemisphere a surface scatters
+        // nothing, as Mitsuba 3's BSDFs (zero for cos θi ≤ 0 in the shading
+        // frame). Never so without vertex normals.
+        if sp.smooth && normals.shading.dot(wo) < 0.0 {
+            return None;
+        }
+        let shading = self
+            .scene
+            .shading(self.scene.shapes[hit.geom as usize].material);
+        let next = match (shading.lobes, &material.bsdf) {
+            (Lobes::Bsdf, Some(bsdf)) => {
+                self.bsdf_vertex(bsdf, hit, sp, normals, wo, depth, lobe_number, path)?
+            }
+            _ => self.lobe_vertex(hit, sp, normals, wo, depth, lobe_number, path)?,
+        };
+        // A direction the shading normal sends to the other side of the
+        // surface than the geometric normal does would leak light through
+        // it: the path ends there (Mitsuba 0.6's strict normals; light
+        // sampling drops such directions too, in `direct`, so both
+        // strategies of MIS agree).
+        normals.agree(next.wi).then_some(next)
     }
 
     /// Mitsuba's mask: whether the path meets the surface (probability α)
@@ -278,99 +233,6 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         (u < alpha).then(|| (u / alpha).min(ONE_MINUS_EPSILON))
     }
 
-    /// Chooses the lobe followed at a vertex; `None` when the path ends
-    /// there (absorption, or nothing left to scatter). A diffuse-only
-    /// material takes a number from the sampler as a mixed one does (and
-    /// skips it when the diffuse lobe is certain), so the independent stream
-    /// does not depend on which of the two evaluated the choice.
-    /// `lobe_number` is the number a mask has already drawn, if any.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
-    fn choose_lobe(
-        &self,
-        material_id: u32,
-        hit: &PreliminaryHit,
-        sp: &SurfacePoint,
-        cos_o: f32,
-        lobe_number: Option<f32>,
-        sampler: &mut Sampler,
-        vertex: u32,
-    ) -> Option<Scatter> {
-        let material = &self.scene.materials[material_id as usize];
-        let mut draw = || lobe_number.unwrap_or_else(|| sampler.get_1d(vertex, Dimension::Lobe));
-        let Lobes::Diffuse { weight } = self.scene.shading(material_id).lobes else {
-            return self.choose_mixed_lobe(material, hit, sp, cos_o, draw());
-        };
-        let p = weight * self.lobe_scale(weight)?;
-        let chosen = match (p >= 1.0, lobe_number) {
-            (true, Some(_)) => true,
-            (true, None) => {
-                sampler.skip_1d();
-                true
-            }
-            (false, _) => draw() < p,
-        };
-        chosen.then_some(Scatter {
-            lobe: Lobe::Diffuse,
-            p,
-            k: material.kd,
-        })
-    }
-
-    fn choose_mixed_lobe(
-        &self,
-        material: &Material,
-        hit: &PreliminaryHit,
-        sp: &SurfacePoint,
-        cos_o: f32,
-        xi: f32,
-    ) -> Option<Scatter> {
-        let kd = if material.texture.is_some() {
-            self.scene.albedo(hit, sp)
-        } else {
-            material.kd
-        };
-        let (ks, kt) = if material.dielectric {
-            let eta = if cos_o > 0.0 {
-                material.ior
-            } else {
-                1.0 / material.ior
-            };
-            let f = fresnel_dielectric(cos_o.abs(), eta);
-            (material.kt * f, material.kt * (1.0 - f))
-        } else {
-            (material.ks, material.kt)
-        };
-        let (wd, ws, wt) = (kd.max_element(), ks.max_element(), kt.max_element());
-        let sum = wd + ws + wt;
-        let scale = self.lobe_scale(sum)?;
-        let (lobe, p, k) = if xi < wd * scale {
-            (Lobe::Diffuse, wd * scale, kd)
-        } else if xi < (wd + ws) * scale {
-            (Lobe::Mirror, ws * scale, ks)
-        } else if xi < sum * scale {
-            (Lobe::Refraction, wt * scale, kt)
-        } else {
-            return None;
-        };
-        Some(Scatter { lobe, p, k })
-    }
-
-    /// Factor from lobe weights summing to `sum` to probabilities:
-    /// normalised when they exceed one or when Russian roulette is off,
-    /// otherwise the rest is absorption. `None` when nothing scatters.
-    #[inline]
-    fn lobe_scale(&self, sum: f32) -> Option<f32> {
-        if sum.is_nan() || sum <= 0.0 {
-            return None;
-        }
-        Some(if sum > 1.0 || !self.settings.russian_roulette {
-            1.0 / sum
-        } else {
-            1.0
-        })
-    }
-
     /// A vertex on a model of `crate::bsdf`: Russian roulette, light
     /// sampling unless every lobe is a delta, then the model's own sample.
     /// `None` ends the path; otherwise the direction and, for a non-delta
@@ -386,11 +248,14 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         wo: Vec3,
         depth: u32,
         lobe_number: Option<f32>,
-        sampler: &mut Sampler,
-        counts: &mut RayCounts,
-        beta: &mut Rgb,
-        radiance: &mut Rgb,
+        path: Path,
     ) -> Option<Continuation> {
+        let Path {
+            beta,
+            radiance,
+            sampler,
+            counts,
+        } = path;
         let vertex = depth - 1;
         let material = self.scene.material_of(hit.geom);
         let diffuse = if material.texture.is_some() {
@@ -553,6 +418,15 @@ impl<B: Backend + ?Sized> Integrator<'_, B> {
 }
 
 /// Where a path goes from a vertex on a model of `crate::bsdf`.
+/// What a vertex changes of its path: the throughput, the radiance
+/// gathered, and the sampler and ray counts it draws from and adds to.
+struct Path<'p> {
+    beta: &'p mut Rgb,
+    radiance: &'p mut Rgb,
+    sampler: &'p mut Sampler,
+    counts: &'p mut RayCounts,
+}
+
 struct Continuation {
     wi: Vec3,
     /// The solid-angle pdf of `wi`; `None` for a delta lobe.
