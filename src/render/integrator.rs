@@ -131,7 +131,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 sampler: &mut *sampler,
                 counts: &mut *counts,
             };
-            let Some(next) = self.scatter(&ray, &hit, &sp, depth, path) else {
+            let Some(next) = self.scatter(&ray, &hit, &sp, shape.material, depth, path) else {
                 break;
             };
             if beta.is_nan() || beta.max_element() <= 0.0 {
@@ -149,16 +149,17 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     /// sampled there (added to the path's radiance), the direction the path
     /// goes on in and its weight (into the path's throughput). `None` ends
     /// the path.
-    #[inline]
+    #[inline(always)]
     fn scatter(
         &self,
         ray: &Ray,
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
+        material_id: u32,
         depth: u32,
         path: Path,
     ) -> Option<Continuation> {
-        let material = self.scene.material_of(hit.geom);
+        let material = &self.scene.materials[material_id as usize];
         let wo = -ray.dir;
         let cos_o = sp.n.dot(wo);
         // The vertex's numbers come in dimension order (`Dimension`).
@@ -192,14 +193,14 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         if sp.smooth && normals.shading.dot(wo) < 0.0 {
             return None;
         }
-        let shading = self
-            .scene
-            .shading(self.scene.shapes[hit.geom as usize].material);
-        let next = match (shading.lobes, &material.bsdf) {
+        let next = match (self.scene.shading(material_id).lobes, &material.bsdf) {
             (Lobes::Bsdf, Some(bsdf)) => {
                 self.bsdf_vertex(bsdf, hit, sp, normals, wo, depth, lobe_number, path)?
             }
-            _ => self.lobe_vertex(hit, sp, normals, wo, depth, lobe_number, path)?,
+            _ => {
+                let vertex = (material_id, depth, lobe_number);
+                self.lobe_vertex(hit, sp, normals, wo, vertex, path)?
+            }
         };
         // A direction the shading normal sends to the other side of the
         // surface than the geometric normal does would leak light through

@@ -27,23 +27,21 @@ struct Scatter {
 }
 
 impl<B: Backend + ?Sized> Integrator<'_, B> {
-    /// A vertex on a kd/ks/kt material: the lobe chosen, light sampled on
-    /// the diffuse one, the direction the path goes on in. `None` ends the
-    /// path. `lobe_number` is the number a mask has already drawn, if any.
-    #[allow(clippy::too_many_arguments)]
-    #[inline]
+    /// A vertex on the kd/ks/kt material `material_id` at path depth
+    /// `depth`: the lobe chosen, light sampled on the diffuse one, the
+    /// direction the path goes on in. `None` ends the path. `lobe_number`
+    /// is the number a mask has already drawn, if any.
+    #[inline(always)]
     pub(super) fn lobe_vertex(
         &self,
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
         normals: Normals,
         wo: Vec3,
-        depth: u32,
-        lobe_number: Option<f32>,
+        (material_id, depth, lobe_number): (u32, u32, Option<f32>),
         path: Path,
     ) -> Option<Continuation> {
         let vertex = depth - 1;
-        let material_id = self.scene.shapes[hit.geom as usize].material;
         let cos_o = sp.n.dot(wo);
         let Scatter { lobe, p, k } = self.choose_lobe(
             material_id,
