@@ -303,14 +303,15 @@ fn unused_mesh_data_earns_one_warning() {
     for needle in ["`nx`", "`edge`", "1 of 4", "degenerate"] {
         assert!(w.contains(needle), "no {needle}: {w}");
     }
-    // OBJ: normals, groups and a degenerate face.
+    // OBJ: normals on some faces only (dropped), groups and a degenerate
+    // face.
     let obj = b"o thing\ng part\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 2 2 0\nvn 0 0 1\n\
                 f 1//1 2//1 3//1\nf 1 1 2\ns 1\n";
     let scene = scene.replace("m.ply", "m.obj");
     let stderr = render_ok(&dir, "obj", &scene, &[("m.obj", obj)]);
     let warnings: Vec<&str> = stderr.lines().filter(|l| l.contains("warning")).collect();
     assert_eq!(warnings.len(), 1, "{stderr}");
-    for needle in ["m.obj", "`vn`", "`g`", "degenerate"] {
+    for needle in ["m.obj", "vertex normals dropped", "`g`", "degenerate"] {
         assert!(warnings[0].contains(needle), "no {needle}: {}", warnings[0]);
     }
     // A clean mesh: not a word.

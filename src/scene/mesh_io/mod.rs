@@ -103,28 +103,33 @@ pub fn load_mesh(path: &Path) -> Result<Mesh, MeshError> {
 /// [`load_mesh`], with the notes and material groups of [`MeshFile`]. The
 /// path must be a regular file.
 pub fn read_mesh(path: &Path) -> Result<MeshFile, MeshError> {
+    read_mapped(path, |data| parse_mesh_noted(data, path))
+}
+
+/// Mesh `shape_index` of a Mitsuba `.serialized` file.
+pub fn read_serialized(path: &Path, shape_index: u32) -> Result<MeshFile, MeshError> {
+    read_mapped(path, |data| {
+        serialized::parse_serialized(data, path, shape_index)
+    })
+}
+
+/// `parse` of the regular file `path`, mapped, while the load's progress
+/// reports the file being read.
+fn read_mapped(
+    path: &Path,
+    parse: impl FnOnce(&[u8]) -> Result<MeshFile, MeshError>,
+) -> Result<MeshFile, MeshError> {
     let size = std::fs::metadata(path).map_or(0, |m| m.len());
     let _step = Step::begin(StepKind::ReadMesh { file: path }, size);
     let data = crate::location::map_regular_file(path).map_err(|source| MeshError::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    parse_mesh_noted(&data, path)
+    parse(&data)
 }
 
 /// Parses the contents of a mesh file; `path` picks the format by its
 /// extension, as in [`load_mesh`], and names the file in errors.
-/// Mesh `shape_index` of a Mitsuba `.serialized` file.
-pub fn read_serialized(path: &Path, shape_index: u32) -> Result<MeshFile, MeshError> {
-    let size = std::fs::metadata(path).map_or(0, |m| m.len());
-    let _step = Step::begin(StepKind::ReadMesh { file: path }, size);
-    let data = crate::location::map_regular_file(path).map_err(|source| MeshError::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    serialized::parse_serialized(&data, path, shape_index)
-}
-
 pub fn parse_mesh(data: &[u8], path: &Path) -> Result<Mesh, MeshError> {
     parse_mesh_noted(data, path).map(|read| read.mesh)
 }

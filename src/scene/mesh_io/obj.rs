@@ -1,16 +1,13 @@
 //! Wavefront OBJ through `tobj`, its objects merged into one mesh, with
 //! the errors `tobj` reports without a line located by [`scan_obj`].
 
-use super::checks::{
-    check_finite, drop_degenerate_grouped, dropped_note, summarize, zero_normals_note,
-    NORMALS_DROPPED,
-};
+use super::checks::{check_finite, drop_degenerate_grouped};
 use super::chunks::CHUNK_BYTES;
 use super::fail::{fail, fail_at, no_triangles, Fail};
 use super::obj_chunks::parse_obj_chunks;
+use super::obj_merge::Uses;
 use super::obj_scan::{scan_obj, Seen};
 use super::MeshFile;
-use crate::echo::echo;
 use crate::geometry::Mesh;
 use crate::location::line_column;
 use crate::math::{Vec2, Vec3};
@@ -70,25 +67,14 @@ fn parse_obj_serial(data: &[u8]) -> Result<MeshFile, Fail> {
             _ => at_end,
         });
     }
-    let mut notes = Vec::new();
-    let unused = seen.unused;
-    if !unused.is_empty() {
-        let items: Vec<String> = unused
-            .iter()
-            .map(|(kw, n): &(String, usize)| format!("{} ({n})", echo(kw)))
-            .collect();
-        notes.push(format!("not used: {}", summarize(&items)));
-    }
-    if any_uv && !with_uv {
-        notes.push("texture coordinates dropped: not every face has them".into());
-    }
-    if any_normal && !with_normals {
-        notes.push(NORMALS_DROPPED.into());
-    }
-    if dropped > 0 {
-        notes.push(dropped_note(dropped, triangles));
-    }
-    notes.extend(zero_normals_note(mesh.normals.as_deref()));
+    let uses = Uses {
+        unused: &seen.unused,
+        any_uv,
+        with_uv,
+        any_normal,
+        with_normals,
+    };
+    let notes = uses.notes(&mesh, dropped, triangles);
     Ok(MeshFile {
         mesh,
         notes,

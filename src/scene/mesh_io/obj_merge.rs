@@ -155,27 +155,54 @@ pub(super) fn build(parts: Vec<Part>, groups: GroupsBuilder) -> Option<MeshFile>
     if mesh.indices.is_empty() {
         return None;
     }
-    let mut notes = Vec::new();
-    if !unused.is_empty() {
-        let items: Vec<String> = unused
-            .iter()
-            .map(|(kw, n)| format!("{} ({n})", echo(kw)))
-            .collect();
-        notes.push(format!("not used: {}", summarize(&items)));
-    }
-    if any_uv && !with_uv {
-        notes.push("texture coordinates dropped: not every face has them".into());
-    }
-    if any_normal && !with_normals {
-        notes.push(NORMALS_DROPPED.into());
-    }
-    if dropped > 0 {
-        notes.push(dropped_note(dropped, triangles));
-    }
-    notes.extend(zero_normals_note(mesh.normals.as_deref()));
+    let uses = Uses {
+        unused: &unused,
+        any_uv,
+        with_uv,
+        any_normal,
+        with_normals,
+    };
+    let notes = uses.notes(&mesh, dropped, triangles);
     Some(MeshFile {
         mesh,
         notes,
         groups,
     })
+}
+
+/// What of an OBJ file its mesh uses: the keywords it skipped, and whether
+/// some faces, and every face, had texture coordinates and normals.
+pub(super) struct Uses<'a> {
+    pub unused: &'a [(String, usize)],
+    pub any_uv: bool,
+    pub with_uv: bool,
+    pub any_normal: bool,
+    pub with_normals: bool,
+}
+
+impl Uses<'_> {
+    /// The notes on the file's mesh: what it did not use, what was
+    /// dropped of its `triangles` faces (`dropped` degenerate ones).
+    pub(super) fn notes(&self, mesh: &Mesh, dropped: usize, triangles: usize) -> Vec<String> {
+        let mut notes = Vec::new();
+        if !self.unused.is_empty() {
+            let items: Vec<String> = self
+                .unused
+                .iter()
+                .map(|(kw, n)| format!("{} ({n})", echo(kw)))
+                .collect();
+            notes.push(format!("not used: {}", summarize(&items)));
+        }
+        if self.any_uv && !self.with_uv {
+            notes.push("texture coordinates dropped: not every face has them".into());
+        }
+        if self.any_normal && !self.with_normals {
+            notes.push(NORMALS_DROPPED.into());
+        }
+        if dropped > 0 {
+            notes.push(dropped_note(dropped, triangles));
+        }
+        notes.extend(zero_normals_note(mesh.normals.as_deref()));
+        notes
+    }
 }
