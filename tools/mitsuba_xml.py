@@ -5,7 +5,8 @@ against Mitsuba itself (issue 14).
     python3 tools/mitsuba_xml.py render SCENE.xml -o mitsuba.exr [--spp N] [--variant V]
     python3 tools/mitsuba_xml.py compare luz.exr mitsuba.exr [--floor luz-seed2.exr]
 
-`render` loads the file as it is, except for what Mitsuba 3.9.1 itself
+`render` loads the file as it is (its includes spliced in, so that the
+edits below reach them), except for what Mitsuba 3.9.1 itself
 refuses in 0.5-format scenes: the `strictNormals`, `high_quality_edges`,
 `extEta` properties and the film's `fileFormat`/`gamma` are dropped, and a
 `sobol` sampler becomes `independent`, `lookAt` is spelled `lookat`, and
@@ -46,12 +47,34 @@ def edited(text, resolution):
     return text.replace('<sampler type="sobol"', '<sampler type="independent"')
 
 
+def spliced(text, folder, depth=0):
+    """The scene text with every <include> replaced by the body of the
+    file it names (found next to the including file, else in the scene's
+    folder), so that the edits above reach a film or filter written in an
+    included file, as in Mitsuba's material-preview scenes."""
+    if depth > 16:
+        raise SystemExit("mitsuba_xml.py: includes nest deeper than 16")
+
+    def body(match):
+        name = match.group(1)
+        path = os.path.join(folder, name)
+        with open(path) as f:
+            inner = f.read()
+        inner = re.sub(r"<\?xml[^>]*\?>", "", inner)
+        inner = re.sub(r"^\s*<scene[^>]*>", "", inner)
+        inner = re.sub(r"</scene>\s*$", "", inner)
+        return spliced(inner, os.path.dirname(path), depth + 1)
+
+    return re.sub(r'<include\s+filename="([^"]+)"\s*/>', body, text)
+
+
 def render(args):
     mi.set_variant(args.variant)
     folder = os.path.dirname(os.path.abspath(args.scene))
     mi.file_resolver().append(folder)
     with open(args.scene) as f:
-        scene = mi.load_string(edited(f.read(), args.resolution))
+        text = spliced(f.read(), folder)
+    scene = mi.load_string(edited(text, args.resolution))
     spp = args.spp or 0
     mi.render(scene, spp=min(spp or 4, 4), seed=args.seed + 1)
     start = time.perf_counter()
