@@ -10,7 +10,9 @@
 //! the end gives each mesh's offset: the count (u32) last, before it one
 //! offset per mesh (u64 in version 4, u32 in version 3).
 
-use super::checks::{check_finite, drop_degenerate, dropped_note, no_faces};
+use super::checks::{
+    check_finite, check_finite_normal, drop_degenerate, dropped_note, no_faces, zero_normals_note,
+};
 use super::{MeshError, MeshFile};
 use crate::geometry::Mesh;
 use crate::math::{Vec2, Vec3};
@@ -237,21 +239,15 @@ fn finish(raw: Raw) -> Result<MeshFile, (bool, String)> {
     let uvs: Option<Vec<Vec2>> = raw
         .uvs
         .map(|f| f.chunks_exact(2).map(Vec2::from_slice).collect());
+    let normals = raw.normals.map(|f| v3(&f));
     for (i, p) in positions.iter().enumerate() {
         check_finite(*p, uvs.as_ref().map(|u| u[i]), i).map_err(|m| (false, m))?;
+        if let Some(normals) = &normals {
+            check_finite_normal(normals[i], i, "normals").map_err(|m| (false, m))?;
+        }
     }
-    let normals = raw.normals.map(|f| v3(&f));
-    if let Some((i, n)) = normals
-        .iter()
-        .flatten()
-        .enumerate()
-        .find(|(_, n)| !n.is_finite())
-    {
-        return Err((
-            false,
-            format!("vertex {i}: the normal must be finite, got {n}"),
-        ));
-    }
+    // Unit length, as every reader keeps them for interpolation.
+    let normals = normals.map(|ns| ns.into_iter().map(Vec3::normalize_or_zero).collect());
     let n = positions.len() as u32;
     let mut indices = Vec::with_capacity(raw.indices.len() / 3);
     for (f, t) in raw.indices.chunks_exact(3).enumerate() {
@@ -272,6 +268,7 @@ fn finish(raw: Raw) -> Result<MeshFile, (bool, String)> {
     if raw.colors {
         notes.push("not used: vertex colours".into());
     }
+    notes.extend(zero_normals_note(normals.as_deref()));
     Ok(MeshFile {
         mesh: Mesh {
             positions,
@@ -352,8 +349,9 @@ mod tests {
 
     #[test]
     fn meshes_of_both_versions_read_by_index() {
-        // Normals then uvs, in f32; a second mesh in f64 without either.
-        let normals_uvs: Vec<f64> = [[0., 0., 1.]; 4]
+        // Normals (not of unit length in the file) then uvs, in f32; a
+        // second mesh in f64 without either.
+        let normals_uvs: Vec<f64> = [[0., 0., 2.]; 4]
             .iter()
             .flatten()
             .copied()
@@ -430,6 +428,13 @@ mod tests {
             &[],
             &[0, 1, 2],
         );
+        let normal_not_finite = mesh_bytes(
+            4,
+            HAS_NORMALS,
+            &TRIANGLE,
+            &[0., 0., 1., 0., 0., 1., 0., f64::INFINITY, 1.],
+            &[0, 1, 2],
+        );
         let mut huge = good.clone();
         huge.truncate(4);
         let mut z = ZlibEncoder::new(Vec::new(), flate2::Compression::fast());
@@ -444,6 +449,10 @@ mod tests {
             (cut, "the compressed data ends early"),
             (out_of_range, "mesh 0: triangle 0: vertex 7 of 3"),
             (not_finite, "vertex 1: coordinates must be finite"),
+            (
+                normal_not_finite,
+                "vertex 2: normal (normals) must be finite",
+            ),
             (huge, "cannot fit in the compressed data"),
         ] {
             let m = message(&file(4, &[data]), 0);
