@@ -15,7 +15,7 @@
 use super::builder::Builder;
 use super::header::{Element, Kind, Property};
 use super::numbers::{parse_float, parse_int};
-use super::plan::Role;
+use super::plan::{Role, Vertex};
 use super::trailing;
 use crate::meter::Step;
 use crate::scene::mesh_io::chunks::{line_chunks, lines_before, CHUNK_BYTES};
@@ -316,7 +316,7 @@ fn record<const LINES: bool>(
     is_vertex: bool,
     out: &mut Builder,
 ) -> Result<(), Fail> {
-    let mut v = [0f32; 8];
+    let mut v = Vertex::default();
     // Where the record's values start, for a non-finite vertex.
     let mut at = None;
     for (prop, &role) in el.props.iter().zip(roles) {

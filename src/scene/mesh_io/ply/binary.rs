@@ -3,7 +3,7 @@
 
 use super::builder::Builder;
 use super::header::{Element, Kind, Property, Ty};
-use super::plan::Role;
+use super::plan::{Role, Vertex};
 use super::trailing;
 use super::triangles::bulk_triangles;
 use crate::scene::mesh_io::fail::{fail_byte, short, Fail};
@@ -149,7 +149,7 @@ fn fixed_vertices<const BE: bool>(
     }
     let all_f32 = fields.iter().all(|f| f.1 == Ty::F32);
     for (k, rec) in records.chunks_exact(stride).enumerate() {
-        let mut v = [0f32; 8];
+        let mut v = Vertex::default();
         if all_f32 {
             for &(o, _, c) in &fields {
                 v[c] = f32::from_le_bytes(bytes::<4, BE>(&rec[o..]));
@@ -196,7 +196,7 @@ fn list_records<const BE: bool>(
     let mut cur = Cursor { data, pos, el };
     for r in 0..el.count {
         let record = cur.pos;
-        let mut v = [0f32; 8];
+        let mut v = Vertex::default();
         for (p, &role) in el.props.iter().zip(roles) {
             match p.kind {
                 Kind::Scalar(ty) => {
