@@ -27,7 +27,7 @@ use crate::sampling::{power_heuristic, Dimension, Sampler};
 
 /// The largest f32 below 1.
 const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
-use crate::scene::{Lobes, Opacity, Scene};
+use crate::scene::{Lobes, Material, Opacity, Scene};
 use std::f32::consts::FRAC_1_PI;
 
 /// Settings of one integration.
@@ -195,7 +195,8 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         }
         let next = match (self.scene.shading(material_id).lobes, &material.bsdf) {
             (Lobes::Bsdf, Some(bsdf)) => {
-                self.bsdf_vertex(bsdf, hit, sp, normals, wo, depth, lobe_number, path)?
+                let model = (material, bsdf);
+                self.bsdf_vertex(model, hit, sp, normals, wo, depth, lobe_number, path)?
             }
             _ => {
                 let vertex = (material_id, depth, lobe_number);
@@ -234,7 +235,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         (u < alpha).then(|| (u / alpha).min(ONE_MINUS_EPSILON))
     }
 
-    /// A vertex on a model of `crate::bsdf`: Russian roulette, light
+    /// A vertex on `material`'s model of `crate::bsdf`: Russian roulette, light
     /// sampling unless every lobe is a delta, then the model's own sample.
     /// `None` ends the path; otherwise the direction and, for a non-delta
     /// sample, its pdf for MIS at the emitter it may hit. `lobe_number` is
@@ -242,7 +243,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
     #[allow(clippy::too_many_arguments)]
     fn bsdf_vertex(
         &self,
-        bsdf: &Bsdf,
+        (material, bsdf): (&Material, &Bsdf),
         hit: &PreliminaryHit,
         sp: &SurfacePoint,
         normals: Normals,
@@ -258,7 +259,6 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             counts,
         } = path;
         let vertex = depth - 1;
-        let material = self.scene.material_of(hit.geom);
         let diffuse = if material.texture.is_some() {
             self.scene.albedo(hit, sp)
         } else {
