@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::meshes::{close, icosphere, load_scene, mesh_of, mesh_scene, ply};
+use common::meshes::{close, icosphere, load_scene, mesh_of, mesh_scene, obj, ply};
 use luz::geometry::Mesh;
 use luz::math::Vec3;
 
@@ -205,13 +205,7 @@ fn the_shading_normal_stays_on_the_side_of_the_winding() {
 fn mitsuba_meshes_use_file_normals_else_computed_ones_unless_face_normals() {
     let dir = common::temp_dir("mitsuba");
     let (p, f) = icosphere(1);
-    let mut obj: String = p
-        .iter()
-        .map(|q| format!("v {} {} {}\n", q.x, q.y, q.z))
-        .collect();
-    for t in &f {
-        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-    }
+    let obj = obj(&p, &f);
     std::fs::write(dir.join("ico.obj"), obj).unwrap();
     std::fs::write(
         dir.join("tri.obj"),

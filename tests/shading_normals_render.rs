@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::meshes::{icosphere, load_scene, mesh_scene, ply, quad_ply};
+use common::meshes::{icosphere, load_scene, mesh_scene, obj, ply, quad_ply};
 use luz::accel::{Accel, BackendKind, BuildOptions};
 use luz::render::{render_with, Film, RenderOptions};
 use luz::scene::Scene;
@@ -91,13 +91,7 @@ fn a_smooth_coarse_sphere_is_closer_to_the_true_sphere() {
     let v: Vec<_> = p.iter().map(|q| (q.to_array(), q.to_array())).collect();
     std::fs::write(dir.join("ico.ply"), ply(&v, &f)).unwrap();
     // The same faces without normals, for the computed ones.
-    let mut obj: String = p
-        .iter()
-        .map(|q| format!("v {} {} {}\n", q.x, q.y, q.z))
-        .collect();
-    for t in &f {
-        obj += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
-    }
+    let obj = obj(&p, &f);
     std::fs::write(dir.join("ico.obj"), obj).unwrap();
     let res = 48;
     let mesh = |file: &str, keys: &str, name: &str| {

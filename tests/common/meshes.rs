@@ -72,6 +72,18 @@ pub fn ply(vertices: &[([f32; 3], [f32; 3])], faces: &[[u32; 3]]) -> String {
     s
 }
 
+/// An OBJ of the mesh's positions and faces, with no normals.
+pub fn obj(positions: &[Vec3], faces: &[[u32; 3]]) -> String {
+    let mut s: String = positions
+        .iter()
+        .map(|q| format!("v {} {} {}\n", q.x, q.y, q.z))
+        .collect();
+    for t in faces {
+        s += &format!("f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    s
+}
+
 /// A quad of two triangles in the z = 0 plane, facing +z, every vertex
 /// with the normal `n`.
 pub fn quad_ply(n: [f32; 3]) -> String {
