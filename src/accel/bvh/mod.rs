@@ -108,7 +108,8 @@ pub struct BuildSettings {
     /// Every leaf's first slot is a multiple of `align`, and its slot range
     /// is padded up to a multiple of `align` (padding slots map to
     /// `PADDING` in `primitive_indices`). A caller that stores primitives
-    /// in packs of `align` then tests a leaf pack by pack. At most 16.
+    /// in packs of `align` then tests a leaf pack by pack. At most 16, and
+    /// rounded up to a power of two.
     pub align: usize,
     /// Cost of testing one pack of `align` primitives, relative to a visit
     /// of one 4-wide node (the SAH's two constants).
@@ -183,7 +184,7 @@ impl Bvh {
         settings: &BuildSettings,
         progress: &Reporter,
     ) -> Bvh {
-        let align = settings.align.clamp(1, 16);
+        let align = settings.align.clamp(1, 16).next_power_of_two();
         let mut preset = settings.quality.preset();
         preset.max_leaf = preset.max_leaf.div_ceil(align) * align;
         if settings.leaf_cost.is_finite() && settings.leaf_cost > 0.0 {
@@ -195,7 +196,7 @@ impl Bvh {
             let mut refs = prim_refs(count, box_of);
             let root = BuildCtx {
                 preset,
-                align,
+                align_log2: align.trailing_zeros(),
                 progress,
             }
             .build(&mut refs, 0, 0);
