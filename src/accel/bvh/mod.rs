@@ -14,7 +14,8 @@
 //! native backend tests four triangles at once); the SAH then counts leaf
 //! cost in packs. Presets (`BuildQuality`): Low = a Morton-code build
 //! (`morton`), leaves up to 8; Medium = binned SAH with 16 bins, leaves up
-//! to 6 (8 when packed by 4); High = 48 bins, up to 4.
+//! to 6 (8 when packed by 4); High = 48 bins, up to 4. Both SAH presets
+//! bin nodes of up to 64 primitives with 8.
 //!
 //! The 4-wide tree is what the binary SAH tree becomes: a flattened array
 //! of 128-byte nodes (two cache lines; six SoA bound rows, child indices,
