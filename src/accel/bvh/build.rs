@@ -336,20 +336,23 @@ impl BuildCtx<'_> {
     ) -> Split {
         let n = refs.len();
         let binner = Binner::new(centroids, N);
-        let bins = if n >= PARALLEL_THRESHOLD * 4 {
-            refs.par_chunks(PARALLEL_THRESHOLD)
+        // The serial bins are swept where they were filled: moved out of
+        // the branch, 1.7 KB of them were copied once per node.
+        let best = if n >= PARALLEL_THRESHOLD * 4 {
+            let bins = refs
+                .par_chunks(PARALLEL_THRESHOLD)
                 .fold(Bins::<N>::new, |mut b, chunk| {
                     b.fill(chunk, &binner);
                     b
                 })
-                .reduce(Bins::new, Bins::merge)
+                .reduce(Bins::new, Bins::merge);
+            self.best_split(&bins, centroids)
         } else {
-            // Filled in place: moving bins by value copied 1.7 KB per node.
             let mut bins = Bins::<N>::new();
             bins.fill(refs, &binner);
-            bins
+            self.best_split(&bins, centroids)
         };
-        let Some((cost, axis, k)) = self.best_split(&bins, centroids) else {
+        let Some((cost, axis, k)) = best else {
             return Split::Unsplittable;
         };
         let area = bounds.half_area();
