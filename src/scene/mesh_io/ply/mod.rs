@@ -31,8 +31,7 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
         face,
         ..
     } = plan;
-    let nv = header.elements[vertex].count;
-    let (nf, face_line) = (header.elements[face].count, header.elements[face].line);
+    let (nv, nf) = (header.elements[vertex].count, header.elements[face].count);
     let mut out = Builder::new(nv, nf, &plan, body.len());
     match header.format {
         Format::Ascii => {
@@ -45,6 +44,19 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
             binary::binary_body::<true>(data, header.body, &header.elements, roles, &mut out)?
         }
     }
+    finish(&header, &plan, out)
+}
+
+/// The mesh and notes of a body read into `out`, or the failure of a body
+/// with no triangle left.
+fn finish(header: &Header, plan: &Plan, mut out: Builder) -> Result<Noted, Fail> {
+    let Plan {
+        ref roles,
+        vertex,
+        face,
+        ..
+    } = *plan;
+    let face_line = header.elements[face].line;
     let triangles = out.indices.len();
     let dropped = drop_degenerate(&out.positions, &mut out.indices);
     if out.indices.is_empty() {
