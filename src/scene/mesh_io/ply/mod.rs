@@ -7,10 +7,16 @@ mod builder;
 mod header;
 mod numbers;
 mod plan;
+mod stream;
+mod stream_ascii;
+#[cfg(test)]
+mod stream_tests;
 mod triangles;
+mod window;
 
 pub(super) use header::{parse_header, Format, Header, Kind, Ty};
 pub(super) use numbers::parse_float;
+pub(super) use stream::{parse_ply_stream, Stop};
 
 use super::checks::{drop_degenerate, dropped_note, summarize, zero_normals_note};
 use super::fail::{fail_byte, no_triangles, short, Fail};
