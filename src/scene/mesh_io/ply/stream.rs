@@ -8,7 +8,8 @@
 //! judge it alike: a body longer than its limit fails there first, and a
 //! fixed-size element cut short fails as cut short before any bad value
 //! in it. Binary faces are read record by record, not in parallel bulk:
-//! the window is read as it inflates, on one thread.
+//! the window is read as it inflates, on one thread. A record longer than
+//! the window (a list of millions of items) grows it to hold the record.
 
 use super::binary::{self, cut_element, get_int, trailing_bytes, truncated};
 use super::builder::Builder;

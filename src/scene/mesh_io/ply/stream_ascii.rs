@@ -1,7 +1,9 @@
 //! The body of an ascii PLY read through a [`Window`], by the serial
 //! reader of `ascii`: the window is read up to its last line end, so no
 //! token is cut, and a record whose values run on past it is forgotten and
-//! read again once the window has been refilled from its line on.
+//! read again once the window has been refilled from its line on. A line
+//! is kept whole for the columns of its errors, so a body with no `\n`
+//! (lines ended by `\r` alone) is held whole, within the body's limit.
 
 use super::ascii::{record, Tokens};
 use super::builder::Builder;
