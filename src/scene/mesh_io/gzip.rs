@@ -1,9 +1,11 @@
-//! Gzipped mesh files, and the bound on how far a gzipped PLY is inflated.
+//! Gzipped mesh files: a PLY parsed as it inflates, through a window of
+//! [`WINDOW_BYTES`], and inflated no further than its header's counts
+//! allow; an OBJ inflated whole (its reader wants the whole text).
 
 use super::fail::Fail;
-use super::ply::{parse_header, trailing, Format, Header, Kind, Ty};
-use super::MeshError;
-use crate::meter::{Reporter, Step};
+use super::ply::{parse_header, parse_ply_stream, Format, Header, Kind, Stop, Ty};
+use super::{MeshError, Noted};
+use crate::meter::{unmetered, Reporter, Step};
 use std::io::Read;
 use std::path::Path;
 
@@ -14,32 +16,45 @@ const MAX_PLY_HEADER: usize = 1 << 20;
 /// bound on an ascii body: `-1.2345678901234567e-123` is 24.
 const MAX_ASCII_VALUE: usize = 64;
 
+/// How much of a gzipped PLY's inflated body is held at a time: large
+/// enough that a refill's copy of the record cut off is nothing, small next
+/// to the mesh it is read into.
+const WINDOW_BYTES: usize = 4 << 20;
+
+/// The most bytes deflate inflates one byte to (a 258-byte match coded in
+/// two bits): with the compressed size, a bound on the body known before it
+/// is read.
+const MAX_DEFLATE_RATIO: usize = 1032;
+
 /// Whether `data` starts with gzip's magic bytes.
 pub(super) fn is_gzip(data: &[u8]) -> bool {
     data.starts_with(&[0x1f, 0x8b])
 }
 
-/// The decompressed contents of the gzipped `data` of the file `path`; of a
-/// PLY (`is_ply`), no more than [`inflate_ply`] allows.
-pub(super) fn inflate(data: &[u8], is_ply: bool, path: &Path) -> Result<Vec<u8>, MeshError> {
-    let gzip = |e: std::io::Error| MeshError::Invalid {
+/// The failure of the gzipped file `path` that cannot be inflated.
+fn gzip_error(path: &Path, e: std::io::Error) -> MeshError {
+    MeshError::Invalid {
         path: path.to_path_buf(),
         msg: format!("gzip: {e}"),
-    };
-    let mut decoder = flate2::read::MultiGzDecoder::new(Counted {
+    }
+}
+
+/// The decoder of the gzipped `data`, reporting the compressed bytes it
+/// takes to the current step.
+fn decoder(data: &[u8]) -> impl Read + '_ {
+    flate2::read::MultiGzDecoder::new(Counted {
         rest: data,
         progress: Step::current(),
-    });
-    let mut out = Vec::new();
-    if is_ply {
-        inflate_ply(&mut decoder, &mut out).map_err(|e| match e {
-            Inflate::Gzip(e) => gzip(e),
-            Inflate::Fail(f) => f.at(path),
-        })?;
-    } else {
-        out.reserve(data.len().saturating_mul(4));
-        decoder.read_to_end(&mut out).map_err(gzip)?;
-    }
+    })
+}
+
+/// The decompressed contents of the gzipped `data` of the file `path`,
+/// whole: for an OBJ, whose reader needs all of it at once.
+pub(super) fn inflate(data: &[u8], path: &Path) -> Result<Vec<u8>, MeshError> {
+    let mut out = Vec::with_capacity(data.len().saturating_mul(4));
+    decoder(data)
+        .read_to_end(&mut out)
+        .map_err(|e| gzip_error(path, e))?;
     Ok(out)
 }
 
@@ -57,43 +72,53 @@ impl Read for Counted<'_> {
     }
 }
 
-enum Inflate {
-    Gzip(std::io::Error),
-    Fail(Fail),
+/// The PLY mesh of the gzipped `data` of the file `path`, parsed as it
+/// inflates; the step counts the compressed bytes.
+pub(super) fn parse_ply(data: &[u8], path: &Path) -> Result<Noted, MeshError> {
+    parse_ply_windowed(data, path, WINDOW_BYTES)
 }
 
-/// Inflates a gzipped PLY into `out`: the header first (at most
-/// [`MAX_PLY_HEADER`] bytes), then no more of the body than its declared
-/// elements can take ([`max_body`]) and one byte: a file that goes on past
-/// that is an error at the byte where the declared data must end, found
-/// before the rest is inflated (a 2 MB file of zeros inflated to 1 GB
-/// before it was refused).
-fn inflate_ply(decoder: &mut impl Read, out: &mut Vec<u8>) -> Result<(), Inflate> {
-    let mut chunk = vec![0u8; 64 << 10];
-    let header = loop {
-        let n = decoder.read(&mut chunk).map_err(Inflate::Gzip)?;
-        out.extend_from_slice(&chunk[..n]);
-        let complete = out
-            .windows(11)
-            .position(|w| w == b"end_header\n" || w == b"end_header\r")
-            .is_some();
-        if n == 0 || complete || out.len() > MAX_PLY_HEADER {
-            // A broken header is reported by the parser, from what is here.
-            match parse_header(out) {
-                Ok(h) => break h,
-                Err(_) => return Ok(()),
-            }
-        }
-    };
+/// [`parse_ply`] through a window of `window` bytes. The header is
+/// inflated first (at most [`MAX_PLY_HEADER`] bytes), then no more of the
+/// body than its declared elements can take ([`max_body`]) and one byte: a
+/// file that goes on past that is an error at the byte where the declared
+/// data must end, found without inflating the rest (a 2 MB file of zeros
+/// inflated to 1 GB before it was refused).
+pub(super) fn parse_ply_windowed(
+    data: &[u8],
+    path: &Path,
+    window: usize,
+) -> Result<Noted, MeshError> {
+    let mut decoder = decoder(data);
+    let head = read_head(&mut decoder).map_err(|e| gzip_error(path, e))?;
+    let header = parse_header(&head).map_err(|f: Fail| f.at(path))?;
     let limit = header.body.saturating_add(max_body(&header));
-    if out.len() <= limit {
-        let left = (limit - out.len()) as u64 + 1;
-        decoder.take(left).read_to_end(out).map_err(Inflate::Gzip)?;
+    let rest = decoder.take(limit.saturating_add(1).saturating_sub(head.len()) as u64);
+    let body_hint = (limit - header.body).min(data.len().saturating_mul(MAX_DEFLATE_RATIO));
+    unmetered(|| parse_ply_stream(&head, header, rest, limit, window, body_hint)).map_err(|s| {
+        match s {
+            Stop::Gzip(e) => gzip_error(path, e),
+            Stop::Fail(f) => f.at(path),
+        }
+    })
+}
+
+/// The first inflated bytes of a PLY: through its `end_header` line, or
+/// as many as there are up to a little more than [`MAX_PLY_HEADER`] when
+/// there is none (a header the parser then refuses).
+fn read_head(decoder: &mut impl Read) -> std::io::Result<Vec<u8>> {
+    let mut chunk = vec![0u8; 64 << 10];
+    let mut head = Vec::new();
+    loop {
+        let n = decoder.read(&mut chunk)?;
+        head.extend_from_slice(&chunk[..n]);
+        let complete = head
+            .windows(11)
+            .any(|w| w == b"end_header\n" || w == b"end_header\r");
+        if n == 0 || complete || head.len() > MAX_PLY_HEADER {
+            return Ok(head);
+        }
     }
-    if out.len() > limit {
-        return Err(Inflate::Fail(trailing(limit, &header.elements, true)));
-    }
-    Ok(())
 }
 
 /// The most bytes a body can hold for the header's counts: per record, the
@@ -128,17 +153,13 @@ fn max_body(header: &Header) -> usize {
 #[cfg(test)]
 mod tests {
     use super::super::load_mesh;
-    use super::super::test_support::{binary_example, check_example, err, write, ASCII};
+    use super::super::test_support::{binary_example, check_example, err, gz, write, ASCII};
     use crate::meter::test_support::{steps, Recorder};
 
     #[test]
     fn gzipped_ply() {
-        use flate2::write::GzEncoder;
-        use std::io::Write;
         for data in [ASCII.as_bytes().to_vec(), binary_example(false, 0)] {
-            let mut gz = GzEncoder::new(Vec::new(), flate2::Compression::default());
-            gz.write_all(&data).unwrap();
-            let gz = gz.finish().unwrap();
+            let gz = gz(&data);
             let path = write("z.ply.gz", &gz);
             let (mesh, events) = Recorder::record(|| load_mesh(&path).unwrap());
             check_example(&mesh);

@@ -3,11 +3,10 @@
 //! with the materials its faces ask for (`usemtl`, [`MaterialGroups`]) and
 //! the MTL libraries that define them ([`read_mtl`]).
 //!
-//! The PLY parser reads the whole (decompressed) file into memory and walks it
-//! once. On the ascii Stanford bunny it takes about 6 ms where `ply-rs-bw`
-//! takes about 160 ms (release; the cross-check test prints both), and it
-//! reports errors with the line (ascii) or the record (binary) where they
-//! happen. Large ascii PLY bodies and OBJ files are read in parallel
+//! The PLY parser walks the whole file, mapped, once. On the ascii Stanford
+//! bunny it takes about 6 ms where `ply-rs-bw` takes about 160 ms
+//! (release; the cross-check test prints both), and it reports errors with
+//! the line (ascii) or the record (binary) where they happen. Large ascii PLY bodies and OBJ files are read in parallel
 //! chunks cut at line ends (`ply::ascii`, `obj_chunks`), with
 //! the serial reader deciding whatever a chunk cannot: the mesh and every
 //! error are the serial reader's.
@@ -19,8 +18,14 @@
 //! degenerate triangles; both are summed up in one note per file (see
 //! [`read_mesh`]). A file that contradicts its header or the format (data
 //! after the declared elements, a face of two vertices, an index of 0) is an
-//! error with its line or byte offset. A gzipped PLY is inflated no further
-//! than the largest body its header's counts allow.
+//! error with its line or byte offset.
+//!
+//! A gzipped PLY is parsed as it inflates (`ply::stream`): its body passes
+//! through a window of a few megabytes, read record by record on one
+//! thread, so it is never held whole; the mesh, the notes and every error
+//! (offsets in the inflated data, lines) are those of the same file parsed
+//! whole. It is inflated no further than the largest body its header's
+//! counts allow. A gzipped OBJ is inflated whole, then parsed.
 
 mod checks;
 mod chunks;
@@ -143,13 +148,7 @@ pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<MeshFile, MeshError>
     let name = name.strip_suffix(".gz").unwrap_or(&name);
     let is_ply = name.ends_with(".ply");
     let parse: fn(&[u8]) -> Result<MeshFile, Fail> = if is_ply {
-        |data| {
-            ply::parse_ply(data).map(|(mesh, notes)| MeshFile {
-                mesh,
-                notes,
-                groups: MaterialGroups::default(),
-            })
-        }
+        |data| ply::parse_ply(data).map(ply_file)
     } else if name.ends_with(".obj") {
         obj::parse_obj
     } else {
@@ -161,13 +160,25 @@ pub fn parse_mesh_noted(data: &[u8], path: &Path) -> Result<MeshFile, MeshError>
     if !gzip::is_gzip(data) {
         return parse(data).map_err(|f| f.at(path));
     }
+    if is_ply {
+        return gzip::parse_ply(data, path).map(ply_file);
+    }
     // The step counts the compressed bytes as they are inflated.
-    let inflated = gzip::inflate(data, is_ply, path)?;
+    let inflated = gzip::inflate(data, path)?;
     unmetered(|| parse(&inflated)).map_err(|f| f.at(path))
 }
 
 /// A PLY mesh with the notes on what of its file luz did not use.
 type Noted = (Mesh, Vec<String>);
+
+/// The file of a PLY mesh, which has no material groups.
+fn ply_file((mesh, notes): Noted) -> MeshFile {
+    MeshFile {
+        mesh,
+        notes,
+        groups: MaterialGroups::default(),
+    }
+}
 
 #[cfg(test)]
 mod tests {

@@ -137,6 +137,14 @@ pub(super) fn binary_example(be: bool, cut: usize) -> Vec<u8> {
     out
 }
 
+/// `data` gzipped.
+pub(super) fn gz(data: &[u8]) -> Vec<u8> {
+    use std::io::Write;
+    let mut e = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    e.write_all(data).unwrap();
+    e.finish().unwrap()
+}
+
 pub(super) fn ply(body: &str) -> String {
     format!(
         "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\

@@ -23,16 +23,16 @@ use crate::scene::mesh_io::fail::{fail_at, short, show, Fail};
 
 /// Whitespace-separated tokens with line numbers; with `LINES`, the tokens
 /// of one line at a time: a `\n` ends them as the end of the data does.
-struct Tokens<'a, const LINES: bool> {
-    data: &'a [u8],
-    pos: usize,
-    line: usize,
+pub(super) struct Tokens<'a, const LINES: bool> {
+    pub(super) data: &'a [u8],
+    pub(super) pos: usize,
+    pub(super) line: usize,
     /// Offset of the current line's first byte.
-    line_start: usize,
+    pub(super) line_start: usize,
     /// Offset of the last token (of the end, once there are no more).
-    start: usize,
+    pub(super) start: usize,
     /// Whether `next` found no more tokens (with `LINES`: on this line).
-    ended: bool,
+    pub(super) ended: bool,
 }
 
 impl<'a, const LINES: bool> Tokens<'a, LINES> {
@@ -48,7 +48,7 @@ impl<'a, const LINES: bool> Tokens<'a, LINES> {
     }
 
     #[inline]
-    fn next(&mut self) -> Option<&'a [u8]> {
+    pub(super) fn next(&mut self) -> Option<&'a [u8]> {
         let d = self.data;
         let mut i = self.pos;
         while i < d.len() && d[i].is_ascii_whitespace() {
@@ -80,7 +80,7 @@ impl<'a, const LINES: bool> Tokens<'a, LINES> {
     }
 
     /// A failure at the last token.
-    fn fail(&self, msg: impl Into<String>) -> Fail {
+    pub(super) fn fail(&self, msg: impl Into<String>) -> Fail {
         let (line, column) = self.loc();
         fail_at(line, column, msg)
     }
@@ -308,7 +308,7 @@ fn read_chunk(
 }
 
 /// Reads record `r` of `el`, a vertex when `is_vertex`.
-fn record<const LINES: bool>(
+pub(super) fn record<const LINES: bool>(
     t: &mut Tokens<LINES>,
     el: &Element,
     roles: &[Role],

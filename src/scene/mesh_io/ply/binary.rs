@@ -35,7 +35,7 @@ fn get<const BE: bool>(b: &[u8], ty: Ty) -> f64 {
 
 /// Reads an integer scalar from the start of `b`.
 #[inline(always)]
-fn get_int<const BE: bool>(b: &[u8], ty: Ty) -> i64 {
+pub(super) fn get_int<const BE: bool>(b: &[u8], ty: Ty) -> i64 {
     match ty {
         Ty::I8 => b[0] as i8 as i64,
         Ty::U8 => b[0] as i64,
@@ -67,30 +67,47 @@ pub(super) fn binary_body<const BE: bool>(
                 let vertices = out.vertex_count();
                 match bulk_triangles::<BE>(data, pos, el, roles, vertices, &mut out.indices) {
                     Some(end) => end,
-                    None => list_records::<BE>(data, pos, el, roles, out)?,
+                    None => list_records::<BE>(data, 0, pos, el, roles, 0..el.count, out)?,
                 }
             }
         };
     }
     if pos < data.len() {
-        let mut f = trailing(pos, elements, false);
-        f.msg = format!("{} bytes: {}", data.len() - pos, f.msg);
-        return Err(f);
+        return Err(trailing_bytes(pos, data.len(), elements));
     }
     Ok(())
 }
 
-/// The failure of record `r` of `el`, cut off at byte `pos` of `data`.
-fn truncated(data: &[u8], el: &Element, r: usize, pos: usize) -> Fail {
+/// The failure of the bytes from `pos` to `total`, the end of the file,
+/// after the last element.
+pub(super) fn trailing_bytes(pos: usize, total: usize, elements: &[Element]) -> Fail {
+    let mut f = trailing(pos, elements, false);
+    f.msg = format!("{} bytes: {}", total - pos, f.msg);
+    f
+}
+
+/// The failure of record `r` of `el`, cut off at byte `pos` of a file of
+/// `total` bytes.
+pub(super) fn truncated(total: usize, el: &Element, r: usize, pos: usize) -> Fail {
     fail_byte(
         pos,
         format!(
-            "file ends early: {} {r} of {} is cut off ({} bytes in all)",
+            "file ends early: {} {r} of {} is cut off ({total} bytes in all)",
             short(&el.name),
             el.count,
-            data.len()
         ),
     )
+}
+
+/// The failure of `el`, whose records are `stride` bytes from `pos` on,
+/// when a file of `total` bytes cannot hold them all.
+pub(super) fn cut_element(total: usize, pos: usize, stride: usize, el: &Element) -> Option<Fail> {
+    let left = total - pos;
+    let need = stride.checked_mul(el.count);
+    need.is_none_or(|n| n > left).then(|| {
+        let r = left / stride.max(1);
+        truncated(total, el, r, pos + r * stride)
+    })
 }
 
 /// Reads the records of `el`, all `stride` bytes long, from offset `pos`;
@@ -104,13 +121,10 @@ fn fixed_records<const BE: bool>(
     out: &mut Builder,
 ) -> Result<usize, Fail> {
     // Check the length once, then read at offsets.
-    let left = data.len() - pos;
-    let need = stride.checked_mul(el.count);
-    if need.is_none_or(|n| n > left) {
-        let r = left / stride.max(1);
-        return Err(truncated(data, el, r, pos + r * stride));
+    if let Some(f) = cut_element(data.len(), pos, stride, el) {
+        return Err(f);
     }
-    let need = need.unwrap_or(0);
+    let need = stride * el.count;
     if roles.contains(&Role::Value(0)) && stride > 0 {
         fixed_vertices::<BE>(&data[pos..pos + need], pos, stride, el, roles, out)?;
     }
@@ -119,7 +133,7 @@ fn fixed_records<const BE: bool>(
 
 /// Reads the vertices of `records`, which start at offset `pos` of the
 /// file and are `stride` bytes each.
-fn fixed_vertices<const BE: bool>(
+pub(super) fn fixed_vertices<const BE: bool>(
     records: &[u8],
     pos: usize,
     stride: usize,
@@ -164,9 +178,12 @@ fn fixed_vertices<const BE: bool>(
     Ok(())
 }
 
-/// The records of one element that has lists, read from `pos` on.
+/// The records of one element that has lists, read from offset `pos` of
+/// the file on, of which `data` holds the bytes from offset `base` on: to
+/// the end, or (streamed) at least through the records read.
 struct Cursor<'a> {
     data: &'a [u8],
+    base: usize,
     pos: usize,
     el: &'a Element,
 }
@@ -174,27 +191,35 @@ struct Cursor<'a> {
 impl<'a> Cursor<'a> {
     /// The next `len` bytes, in record `r`; `None` is a length past any file.
     fn take(&mut self, len: Option<usize>, r: usize) -> Result<&'a [u8], Fail> {
-        let (data, pos) = (self.data, self.pos);
+        let (data, at) = (self.data, self.pos - self.base);
         let b = len
-            .and_then(|len| data.get(pos..pos.checked_add(len)?))
-            .ok_or_else(|| truncated(data, self.el, r, pos))?;
+            .and_then(|len| data.get(at..at.checked_add(len)?))
+            .ok_or_else(|| truncated(self.base + data.len(), self.el, r, self.pos))?;
         self.pos += b.len();
         Ok(b)
     }
 }
 
-/// Reads the records of `el`, which has lists, from offset `pos`; returns
-/// the offset after them.
-fn list_records<const BE: bool>(
+/// Reads `records` of `el`, which has lists, from offset `pos` of the file,
+/// whose bytes from offset `base` on are `data` (as for [`Cursor`]);
+/// returns the offset after them.
+pub(super) fn list_records<const BE: bool>(
     data: &[u8],
+    base: usize,
     pos: usize,
     el: &Element,
     roles: &[Role],
+    records: std::ops::Range<usize>,
     out: &mut Builder,
 ) -> Result<usize, Fail> {
     let is_vertex = roles.contains(&Role::Value(0));
-    let mut cur = Cursor { data, pos, el };
-    for r in 0..el.count {
+    let mut cur = Cursor {
+        data,
+        base,
+        pos,
+        el,
+    };
+    for r in records {
         let record = cur.pos;
         let mut v = Vertex::default();
         for (p, &role) in el.props.iter().zip(roles) {

@@ -121,6 +121,24 @@ impl Builder {
         }
     }
 
+    /// What the builder holds, for [`rollback`](Self::rollback).
+    pub(super) fn mark(&self) -> (usize, usize) {
+        (self.positions.len(), self.indices.len())
+    }
+
+    /// Forgets what was read after `mark`, and the face being read.
+    pub(super) fn rollback(&mut self, (vertices, triangles): (usize, usize)) {
+        self.positions.truncate(vertices);
+        if let Some(uvs) = &mut self.uvs {
+            uvs.truncate(vertices);
+        }
+        if let Some(normals) = &mut self.normals {
+            normals.truncate(vertices);
+        }
+        self.indices.truncate(triangles);
+        self.poly.clear();
+    }
+
     /// The number of vertices indices must stay below.
     pub(super) fn vertex_count(&self) -> usize {
         self.nv as usize

@@ -7,10 +7,16 @@ mod builder;
 mod header;
 mod numbers;
 mod plan;
+mod stream;
+mod stream_ascii;
+#[cfg(test)]
+mod stream_tests;
 mod triangles;
+mod window;
 
 pub(super) use header::{parse_header, Format, Header, Kind, Ty};
 pub(super) use numbers::parse_float;
+pub(super) use stream::{parse_ply_stream, Stop};
 
 use super::checks::{drop_degenerate, dropped_note, summarize, zero_normals_note};
 use super::fail::{fail_byte, no_triangles, short, Fail};
@@ -31,8 +37,7 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
         face,
         ..
     } = plan;
-    let nv = header.elements[vertex].count;
-    let (nf, face_line) = (header.elements[face].count, header.elements[face].line);
+    let (nv, nf) = (header.elements[vertex].count, header.elements[face].count);
     let mut out = Builder::new(nv, nf, &plan, body.len());
     match header.format {
         Format::Ascii => {
@@ -45,6 +50,19 @@ pub(super) fn parse_ply(data: &[u8]) -> Result<Noted, Fail> {
             binary::binary_body::<true>(data, header.body, &header.elements, roles, &mut out)?
         }
     }
+    finish(&header, &plan, out)
+}
+
+/// The mesh and notes of a body read into `out`, or the failure of a body
+/// with no triangle left.
+fn finish(header: &Header, plan: &Plan, mut out: Builder) -> Result<Noted, Fail> {
+    let Plan {
+        ref roles,
+        vertex,
+        face,
+        ..
+    } = *plan;
+    let face_line = header.elements[face].line;
     let triangles = out.indices.len();
     let dropped = drop_degenerate(&out.positions, &mut out.indices);
     if out.indices.is_empty() {
