@@ -257,7 +257,10 @@ impl BuildCtx<'_> {
             first: first as u32,
             count: n as u32,
         };
-        if n <= 1 {
+        // A split costs a node visit at least, so a leaf that costs no more
+        // is chosen without binning. Most leaves are such, and were binned
+        // and swept only to be chosen.
+        if n <= 1 || (n <= self.preset.max_leaf && self.packs(n) <= self.preset.traversal_cost) {
             return (bounds.aabb(), leaf);
         }
         // Depth guard: from here, halving splits keep every leaf above
