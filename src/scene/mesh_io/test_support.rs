@@ -89,6 +89,31 @@ pub(super) fn push_ordered(out: &mut Vec<u8>, little_endian: &[u8], be: bool) {
     }
 }
 
+/// The small example in its three formats: ascii, then binary little and
+/// big endian.
+pub(super) fn examples() -> [Vec<u8>; 3] {
+    [
+        ASCII.as_bytes().to_vec(),
+        binary_example(false, 0),
+        binary_example(true, 0),
+    ]
+}
+
+/// `count` copies of `data`, each with one byte overwritten at a place of
+/// a fixed pseudo-random sequence (xorshift).
+pub(super) fn corruptions(data: &[u8], count: usize) -> impl Iterator<Item = Vec<u8>> + '_ {
+    let mut x = 0x9e37_79b9_7f4a_7c15u64;
+    (0..count).map(move |_| {
+        x ^= x << 13;
+        x ^= x >> 7;
+        x ^= x << 17;
+        let mut d = data.to_vec();
+        let i = (x % d.len() as u64) as usize;
+        d[i] = (x >> 32) as u8;
+        d
+    })
+}
+
 /// The ASCII example as binary, with the same types.
 pub(super) fn binary_example(be: bool, cut: usize) -> Vec<u8> {
     let format = if be {

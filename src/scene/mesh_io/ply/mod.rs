@@ -131,29 +131,17 @@ mod tests {
     use super::parse_ply;
     use crate::math::Vec3;
     use crate::scene::mesh_io::load_mesh;
-    use crate::scene::mesh_io::test_support::{assets, binary_example, ASCII};
+    use crate::scene::mesh_io::test_support::{assets, corruptions, examples};
 
     /// Every truncation and many byte corruptions give a result or an
     /// error, never a panic.
     #[test]
     fn damaged_files_never_panic() {
-        let files = [
-            ASCII.as_bytes().to_vec(),
-            binary_example(false, 0),
-            binary_example(true, 0),
-        ];
-        for data in &files {
+        for data in &examples() {
             for n in 0..data.len() {
                 let _ = parse_ply(&data[..n]);
             }
-            let mut x = 0x9e37_79b9_7f4a_7c15u64;
-            for _ in 0..5000 {
-                x ^= x << 13;
-                x ^= x >> 7;
-                x ^= x << 17;
-                let mut d = data.clone();
-                let i = (x % d.len() as u64) as usize;
-                d[i] = (x >> 32) as u8;
+            for d in corruptions(data, 5000) {
                 let _ = parse_ply(&d);
             }
         }

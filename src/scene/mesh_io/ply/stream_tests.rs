@@ -5,7 +5,7 @@
 
 use super::parse_ply;
 use crate::scene::mesh_io::gzip::parse_ply_windowed;
-use crate::scene::mesh_io::test_support::{binary_example, gz, ply, push_ordered, ASCII};
+use crate::scene::mesh_io::test_support::{corruptions, examples, gz, ply, push_ordered, ASCII};
 use crate::scene::mesh_io::{MeshError, Noted};
 use std::path::Path;
 
@@ -162,12 +162,7 @@ const FORMATS: [&str; 3] = ["ascii", "binary_little_endian", "binary_big_endian"
 /// every record cut at every place.
 #[test]
 fn small_files_stream_through_every_window() {
-    let files = [
-        ASCII.as_bytes().to_vec(),
-        binary_example(false, 0),
-        binary_example(true, 0),
-    ];
-    for data in &files {
+    for data in &examples() {
         let read = streams_alike(data, 1..data.len() + 2);
         assert!(!is_error(&read), "{read}");
     }
@@ -204,12 +199,7 @@ fn large_files_stream_alike() {
 /// byte or line.
 #[test]
 fn truncated_files_fail_alike() {
-    let small = [
-        ASCII.as_bytes().to_vec(),
-        binary_example(false, 0),
-        binary_example(true, 0),
-    ];
-    for data in &small {
+    for data in &examples() {
         for cut in 0..data.len() {
             streams_alike(&data[..cut], [1, 5, 64]);
         }
@@ -290,17 +280,10 @@ fn damaged_files_fail_alike() {
 /// Bytes overwritten anywhere: the same mesh or the same failure.
 #[test]
 fn corrupted_bytes_fail_alike() {
-    let mut x = 0x9e37_79b9_7f4a_7c15u64;
     for format in FORMATS {
         let data = grid(format, 8, true);
         let mut errors = 0;
-        for _ in 0..300 {
-            x ^= x << 13;
-            x ^= x >> 7;
-            x ^= x << 17;
-            let mut d = data.clone();
-            let i = (x % d.len() as u64) as usize;
-            d[i] = (x >> 32) as u8;
+        for d in corruptions(&data, 300) {
             errors += is_error(&streams_alike(&d, [3, 64])) as usize;
         }
         assert!(errors > 10, "{format}: {errors}");
