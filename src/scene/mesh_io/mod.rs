@@ -6,10 +6,10 @@
 //! The PLY parser walks the whole file, mapped, once. On the ascii Stanford
 //! bunny it takes about 6 ms where `ply-rs-bw` takes about 160 ms
 //! (release; the cross-check test prints both), and it reports errors with
-//! the line (ascii) or the record (binary) where they happen. Large ascii PLY bodies and OBJ files are read in parallel
-//! chunks cut at line ends (`ply::ascii`, `obj_chunks`), with
-//! the serial reader deciding whatever a chunk cannot: the mesh and every
-//! error are the serial reader's.
+//! the line (ascii) or the record (binary) where they happen. Large ascii
+//! PLY bodies and OBJ files are read in parallel chunks cut at line ends
+//! (`ply::ascii`, `obj_chunks`), with the serial reader deciding whatever a
+//! chunk cannot: the mesh and every error are the serial reader's.
 //!
 //! Polygons are fan-triangulated. Vertex normals (PLY `nx ny nz`, OBJ `vn`)
 //! are read as unit vectors; a non-finite one is an error at its line or

@@ -10,9 +10,7 @@ use super::builder::Builder;
 use super::header::Element;
 use super::plan::Role;
 use super::stream::Stop;
-use super::trailing;
 use super::window::Window;
-use crate::scene::mesh_io::fail::Fail;
 use std::io::Read;
 
 /// Where the reading is, as offsets in the stream: the next byte, and the
@@ -33,14 +31,12 @@ fn tokens<R: Read>(w: &Window<R>, at: Place) -> Tokens<'_, false> {
         false => data.iter().rposition(|&b| b == b'\n').map_or(0, |i| i + 1),
     };
     let pos = at.pos - w.start();
-    Tokens {
-        data: &data[..text.max(pos)],
+    Tokens::resumed(
+        &data[..text.max(pos)],
         pos,
-        line: at.line,
-        line_start: at.line_start - w.start(),
-        start: pos,
-        ended: false,
-    }
+        at.line,
+        at.line_start - w.start(),
+    )
 }
 
 fn place<R: Read>(t: &Tokens<false>, w: &Window<R>) -> Place {
@@ -90,8 +86,7 @@ pub(super) fn ascii_body<R: Read>(
     // Anything but blanks after the last record fails at its first token.
     loop {
         if t.next().is_some() {
-            let Fail { msg, .. } = trailing(0, elements, false);
-            return Err(t.fail(msg).into());
+            return Err(t.trailing(elements).into());
         }
         if w.at_end() {
             return Ok(());
