@@ -508,3 +508,22 @@ fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> (usize, S
         j -= 1;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::Vec3;
+
+    /// The index's bits are a subnormal float below 2^23 and a tiny normal
+    /// one above; neither may reach the centroid, whose every lane goes
+    /// through the binning's arithmetic.
+    #[test]
+    fn centroids_carry_no_index_bits() {
+        let b = Aabb::new(Vec3::new(1.0, -2.0, 0.5), Vec3::new(3.0, 2.0, 0.5));
+        for index in [0, 1, (1 << 23) - 1, 1 << 23, 17_800_000, u32::MAX - 1] {
+            let r = PrimRef::new(&b, index);
+            assert_eq!(r.index(), index);
+            assert_eq!(r.centroid2().to_array(), [4.0, 0.0, 1.0, 0.0]);
+        }
+    }
+}
