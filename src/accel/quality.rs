@@ -8,11 +8,15 @@
 //! samples per triangle) the Morton build saves 7 s of the SAH build's 9
 //! and Embree's low compact build 3.4 s of its medium one's 4.9, while
 //! tracing slows by 10–25%; at the bunny's 240 samples per triangle the
-//! build is under 0.1 s and tracing speed is all that counts. Tracing
-//! costs about one triangle build per sample, so the break-even lies near
-//! one sample per triangle: `auto` picks `low` below it and `medium` above.
-//! For Embree, `auto`'s `low` is also compact (`RTC_SCENE_FLAG_COMPACT`:
-//! half the memory, 14% slower rays on the 17.8M mesh).
+//! build is under 0.1 s and tracing speed is all that counts. `auto` picks
+//! `low` below a break-even number of samples per triangle and `medium`
+//! above, one per backend. Embree's lies near one sample per triangle or
+//! above. The native one moved to about half a sample per triangle on
+//! 2026-12-06, when the SAH build became twice as fast at 17.8M triangles:
+//! the Morton build then saved about 3.9 s of build and cost 0.38 s of
+//! tracing per million samples (docs/performance.md). For Embree, `auto`'s
+//! `low` is also compact (`RTC_SCENE_FLAG_COMPACT`: half the memory, 14%
+//! slower rays on the 17.8M mesh).
 
 use super::bvh::BuildQuality;
 use super::EmbreeQuality;
@@ -29,8 +33,10 @@ pub enum Quality {
     High,
 }
 
-/// Samples per triangle below which `Auto` builds `Low`.
-const LOW_BELOW_SAMPLES_PER_TRIANGLE: f64 = 1.0;
+/// Samples per triangle below which `Auto` builds `Low`: the native
+/// backend's and Embree's.
+const NATIVE_LOW_BELOW: f64 = 0.5;
+const EMBREE_LOW_BELOW: f64 = 1.0;
 
 impl Quality {
     pub const ALL: [Quality; 4] = [Self::Auto, Self::Low, Self::Medium, Self::High];
@@ -45,10 +51,11 @@ impl Quality {
         }
     }
 
-    /// `Low`, `Medium` or `High`: `Auto` resolved for `work`.
-    fn resolve(self, work: Work) -> Quality {
+    /// `Low`, `Medium` or `High`: `Auto` resolved for `work` by the
+    /// break-even `low_below` (samples per triangle).
+    fn resolve(self, work: Work, low_below: f64) -> Quality {
         match self {
-            Self::Auto if work.samples_per_triangle() < LOW_BELOW_SAMPLES_PER_TRIANGLE => Self::Low,
+            Self::Auto if work.samples_per_triangle() < low_below => Self::Low,
             Self::Auto => Self::Medium,
             q => q,
         }
@@ -56,7 +63,7 @@ impl Quality {
 
     /// The native BVH's preset for `work`.
     pub fn native(self, work: Work) -> BuildQuality {
-        match self.resolve(work) {
+        match self.resolve(work, NATIVE_LOW_BELOW) {
             Self::Low => BuildQuality::Low,
             Self::High => BuildQuality::High,
             _ => BuildQuality::Medium,
@@ -65,7 +72,7 @@ impl Quality {
 
     /// Embree's quality for `work`, and whether its scene is compact.
     pub fn embree(self, work: Work) -> (EmbreeQuality, bool) {
-        match (self, self.resolve(work)) {
+        match (self, self.resolve(work, EMBREE_LOW_BELOW)) {
             (Self::Auto, Self::Low) => (EmbreeQuality::Low, true),
             (_, Self::Low) => (EmbreeQuality::Low, false),
             (_, Self::High) => (EmbreeQuality::High, false),
@@ -113,11 +120,19 @@ mod tests {
     use super::*;
 
     #[test]
-    fn auto_is_low_below_one_sample_per_triangle() {
+    fn auto_is_low_below_each_backends_break_even() {
         let few = Work {
             samples: 1e6,
             triangles: 17.8e6,
         };
+        // 0.94 samples per triangle: the native SAH build pays, Embree's
+        // does not yet.
+        let between = Work {
+            samples: 16.7e6,
+            triangles: 17.8e6,
+        };
+        assert_eq!(Quality::Auto.native(between), BuildQuality::Medium);
+        assert_eq!(Quality::Auto.embree(between), (EmbreeQuality::Low, true));
         let many = Work {
             samples: 16.7e6,
             triangles: 69e3,

@@ -240,8 +240,8 @@ pub(crate) struct SettingsArgs {
     #[arg(long, value_parser = parse_resolution)]
     pub(crate) resolution: Option<(u32, u32)>,
     /// The native BVH's build: auto, low (Morton codes, quickest), medium
-    /// (binned SAH), high. auto: low below one sample per triangle, else
-    /// medium.
+    /// (binned SAH), high. auto: low below half a sample per triangle,
+    /// else medium.
     #[arg(long, default_value = "auto")]
     pub(crate) bvh_quality: Quality,
     /// Embree's BVH quality: auto, low, medium, high. auto: low and compact
