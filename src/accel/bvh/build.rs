@@ -141,6 +141,8 @@ struct Bins<const N: usize> {
 /// What maps a (doubled) centroid to its bin on each axis.
 #[derive(Clone, Copy)]
 struct Binner {
+    /// Bins in use, at most the bins' capacity.
+    count: usize,
     min: Vec4,
     scale: Vec4,
     /// The last bin's number, as a float in every lane.
@@ -158,6 +160,7 @@ impl Binner {
             }
         };
         Self {
+            count: bins,
             min: centroids.min,
             scale: Vec4::new(scale(ext.x), scale(ext.y), scale(ext.z), 0.0),
             last: F4::splat((bins - 1) as f32),
@@ -211,13 +214,14 @@ impl<const N: usize> Bins<N> {
     }
 }
 
-/// Bins of a small node, and up to how many primitives a node is small.
-/// Most nodes are small, and a node's bins are cleared, filled and swept
-/// whatever its size: 8 bins up to 64 primitives rather than 16 took 4.3%
-/// off a medium build's instructions, with the same instructions per
-/// sample on the bunny (docs/performance.md, 2026-12-06).
-const FEW_BINS: usize = 8;
-const FEW_BINS_BELOW: usize = 64;
+/// Bins for a node of `n` primitives, at most `most`: 4 + n / 20, as
+/// Embree's `BinMapping`. Most nodes are small, and a node's sweep costs
+/// per bin what binning costs per primitive: this took 5.7% off a medium
+/// build's instructions against 8 bins up to 64 primitives, with the same
+/// instructions per sample (docs/performance.md, 2026-12-06).
+fn bins_for(n: usize, most: usize) -> usize {
+    (4 + n / 20).min(most)
+}
 
 fn log2_ceil(n: usize) -> usize {
     (usize::BITS - n.saturating_sub(1).leading_zeros()) as usize
@@ -323,30 +327,29 @@ impl BuildCtx<'_> {
         packs as f32 * self.preset.pack_cost
     }
 
-    /// Binned SAH over the three axes with the preset's bins (at most
-    /// [`FEW_BINS`] for a node of up to [`FEW_BINS_BELOW`] primitives); on
-    /// `Split::At`, `refs` is partitioned.
+    /// Binned SAH over the three axes with [`bins_for`] the node's size
+    /// and the preset; on `Split::At`, `refs` is partitioned. The bins'
+    /// capacity is a constant, so a small node does not clear a large
+    /// node's.
     fn sah_split(&self, refs: &mut [PrimRef], centroids: &Bounds, bounds: &Bounds) -> Split {
-        let bins = if refs.len() <= FEW_BINS_BELOW {
-            FEW_BINS
-        } else {
-            self.preset.bins
-        };
+        let bins = bins_for(refs.len(), self.preset.bins);
         match bins {
-            0..=8 => self.sah_split_in::<8>(refs, centroids, bounds),
-            9..=16 => self.sah_split_in::<16>(refs, centroids, bounds),
-            _ => self.sah_split_in::<48>(refs, centroids, bounds),
+            0..=8 => self.sah_split_in::<8>(refs, bins, centroids, bounds),
+            9..=16 => self.sah_split_in::<16>(refs, bins, centroids, bounds),
+            _ => self.sah_split_in::<48>(refs, bins, centroids, bounds),
         }
     }
 
+    /// As `sah_split`, with `bins` of the capacity `N`.
     fn sah_split_in<const N: usize>(
         &self,
         refs: &mut [PrimRef],
+        bins: usize,
         centroids: &Bounds,
         bounds: &Bounds,
     ) -> Split {
         let n = refs.len();
-        let binner = Binner::new(centroids, N);
+        let binner = Binner::new(centroids, bins.min(N));
         // The serial bins are swept where they were filled: moved out of
         // the branch, 1.7 KB of them were copied once per node.
         let best = if n >= PARALLEL_THRESHOLD * 4 {
@@ -357,11 +360,11 @@ impl BuildCtx<'_> {
                     b
                 })
                 .reduce(Bins::new, Bins::merge);
-            self.best_split(&bins, centroids)
+            self.best_split(&bins, binner.count, centroids)
         } else {
             let mut bins = Bins::<N>::new();
             bins.fill(refs, &binner);
-            self.best_split(&bins, centroids)
+            self.best_split(&bins, binner.count, centroids)
         };
         let Some((cost, axis, k)) = best else {
             return Split::Unsplittable;
@@ -377,13 +380,13 @@ impl BuildCtx<'_> {
     }
 
     /// The cheapest (cost, axis, first right bin) over the axes that have
-    /// an extent.
+    /// an extent, among the first `nb` bins.
     fn best_split<const N: usize>(
         &self,
         bins: &Bins<N>,
+        nb: usize,
         centroids: &Bounds,
     ) -> Option<(f32, usize, usize)> {
-        let nb = N;
         let ext = centroids.max - centroids.min;
         let mut best: Option<(f32, usize, usize)> = None;
         let mut right_area = [0.0f32; N];

@@ -15,7 +15,7 @@
 //! cost in packs. Presets (`BuildQuality`): Low = a Morton-code build
 //! (`morton`), leaves up to 8; Medium = binned SAH with 16 bins, leaves up
 //! to 6 (8 when packed by 4); High = 48 bins, up to 4. Both SAH presets
-//! bin nodes of up to 64 primitives with 8.
+//! bin a node of n primitives with at most 4 + n / 20 bins.
 //!
 //! The 4-wide tree is what the binary SAH tree becomes: a flattened array
 //! of 128-byte nodes (two cache lines; six SoA bound rows, child indices,
