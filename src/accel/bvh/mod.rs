@@ -38,6 +38,7 @@
 //! reciprocal; the `0 * inf = NaN` it produces for a ray lying in a slab's
 //! plane is dropped by min/max operations whose operand order ignores NaN.
 
+mod bins;
 mod build;
 mod collapse;
 mod morton;
