@@ -9,8 +9,9 @@
 //! the very values of the shared watertight `intersect_triangle`, so hits
 //! are bit for bit those of the shared routine (and of brute force),
 //! watertightness included. Padding lanes hold NaN vertices, which are never
-//! hit; the scene ids ride in the pack's last cache line, so a hit needs no
-//! other lookup.
+//! hit; each lane's triangle number rides in the pack's last cache line,
+//! and a hit maps it to its mesh (one search among the meshes' first
+//! numbers) only once the closest is known.
 //!
 //! Why two trees: analytic shapes cost more than a pack of triangles; in one
 //! packed tree the SAH, which counts packs, put several of them in one leaf
@@ -31,14 +32,15 @@ use crate::simd::F4;
 use rayon::prelude::*;
 
 /// Four triangles: `p[v][c][k]` is coordinate `c` of vertex `v` of
-/// triangle `k`; then the scene's ids of the four, read only for the final
-/// hit, from a cache line the test has already loaded. Three cache lines.
-#[repr(C, align(64))]
+/// triangle `k`; then their triangle numbers (`Triangles`), read only for
+/// the final hit, from a cache line the test has already loaded. 160 bytes
+/// on a 32-byte boundary: every pack spans three cache lines, as a 192-byte
+/// pack on a line's boundary would, in a sixth less memory.
+#[repr(C, align(32))]
 #[derive(Clone, Copy, Debug)]
 struct TriPack {
     p: [[[f32; 4]; 3]; 3],
-    geom: [u32; 4],
-    prim: [u32; 4],
+    triangle: [u32; 4],
 }
 
 impl TriPack {
@@ -46,13 +48,11 @@ impl TriPack {
     /// zero, so it never takes the f64 path.
     const EMPTY: TriPack = TriPack {
         p: [[[f32::NAN; 4]; 3]; 3],
-        geom: [u32::MAX; 4],
-        prim: [u32::MAX; 4],
+        triangle: [PADDING; 4],
     };
 
-    fn set(&mut self, k: usize, p: [Vec3; 3], geom: u32, prim: u32) {
-        self.geom[k] = geom;
-        self.prim[k] = prim;
+    fn set(&mut self, k: usize, p: [Vec3; 3], triangle: u32) {
+        self.triangle[k] = triangle;
         for (v, p) in p.iter().enumerate() {
             for c in 0..3 {
                 self.p[v][c][k] = p[c];
@@ -173,16 +173,26 @@ impl<'a> Triangles<'a> {
         self.count
     }
 
-    /// Scene id, mesh and triangle of triangle number `i`.
+    /// Mesh and triangle of triangle number `i`.
     #[inline]
-    fn get(&self, i: usize) -> (u32, &'a Mesh, u32) {
+    fn get(&self, i: usize) -> (&'a Mesh, u32) {
         let m = self.first.partition_point(|&f| f <= i) - 1;
-        let (geom, mesh) = self.meshes[m];
-        (geom, mesh, (i - self.first[m]) as u32)
+        (self.meshes[m].1, (i - self.first[m]) as u32)
+    }
+
+    /// What `MeshStarts::locate` needs once the meshes are gone.
+    fn starts(&self) -> MeshStarts {
+        MeshStarts(
+            self.meshes
+                .iter()
+                .zip(&self.first)
+                .map(|(&(geom, _), &first)| (first as u32, geom))
+                .collect(),
+        )
     }
 
     fn bounds(&self, i: usize) -> Aabb {
-        let (_, mesh, prim) = self.get(i);
+        let (mesh, prim) = self.get(i);
         mesh.triangle_bounds(prim)
     }
 
@@ -198,12 +208,12 @@ impl<'a> Triangles<'a> {
                     if i == PADDING {
                         continue;
                     }
-                    let (geom, mesh, prim) = self.get(i as usize);
+                    let (mesh, prim) = self.get(i as usize);
                     let p = mesh.vertices(prim);
                     // A triangle of zero area stays NaN, as
                     // `intersect_triangle` never hits it.
                     if !has_zero_area(p) {
-                        pack.set(k, p, geom, prim);
+                        pack.set(k, p, i);
                     }
                 }
                 pack
@@ -213,11 +223,25 @@ impl<'a> Triangles<'a> {
     }
 }
 
+/// The first triangle number and scene id of each mesh of `Triangles`.
+struct MeshStarts(Vec<(u32, u32)>);
+
+impl MeshStarts {
+    /// Scene id and triangle of triangle number `triangle`.
+    #[inline]
+    fn locate(&self, triangle: u32) -> (u32, u32) {
+        let m = self.0.partition_point(|&(first, _)| first <= triangle) - 1;
+        let (first, geom) = self.0[m];
+        (geom, triangle - first)
+    }
+}
+
 pub struct NativeBackend {
     /// Over mesh triangles, 4-aligned leaves.
     tri_bvh: Bvh,
     /// Pack `slot / 4`, lane `slot % 4`.
     packs: Vec<TriPack>,
+    mesh_starts: MeshStarts,
     /// Over the analytic shapes not at the root (`Accel`'s): scene id and
     /// a copy of each, in slot order. Empty in most scenes.
     analytic_bvh: Bvh,
@@ -270,6 +294,7 @@ impl NativeBackend {
             },
         );
         let packs = meshes.packs(tri_bvh.primitive_indices());
+        let mesh_starts = meshes.starts();
         let analytic = analytic_bvh
             .primitive_indices()
             .iter()
@@ -278,6 +303,7 @@ impl NativeBackend {
         Self {
             tri_bvh,
             packs,
+            mesh_starts,
             analytic_bvh,
             analytic,
         }
@@ -327,10 +353,11 @@ impl NativeBackend {
                     }
                     best
                 })?;
+        let (geom, prim) = self.mesh_starts.locate(pack.triangle[k]);
         Some(PreliminaryHit {
             t,
-            geom: pack.geom[k],
-            prim: pack.prim[k],
+            geom,
+            prim,
             u,
             v,
         })
