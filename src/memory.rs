@@ -42,6 +42,22 @@ fn advise_huge_pages(start: usize, len: usize) {
 #[cfg(not(target_os = "linux"))]
 fn advise_huge_pages(_start: usize, _len: usize) {}
 
+/// Hands the pages of freed heap memory back to the kernel. Millions of
+/// small blocks freed at once (a build tree's nodes) stay resident in the
+/// allocator's arenas, where the next large buffer, mapped afresh, cannot
+/// reuse them: without this they add to the peak.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+pub(crate) fn release_freed_memory() {
+    // SAFETY: malloc_trim only returns free pages to the kernel; no live
+    // allocation is touched.
+    unsafe {
+        libc::malloc_trim(0);
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+pub(crate) fn release_freed_memory() {}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -218,6 +218,8 @@ impl Bvh {
             align,
         };
         let depth = out.node(&root, 1);
+        drop(root);
+        memory::release_freed_memory();
         Bvh {
             nodes: out.nodes,
             order: out.slots,
