@@ -3,7 +3,7 @@
 
 mod common;
 
-use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
+use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Quality};
 use luz::geometry::Geometry;
 use luz::geometry::PreliminaryHit;
 use luz::geometry::{Cuboid, Mesh, Plane, Quad, Sphere};
@@ -101,11 +101,21 @@ fn random_ray(rng: &mut Rng, scale: f32) -> Ray {
 }
 
 #[test]
-fn native_backend_matches_brute_force_on_1e5_rays_at_three_scales() {
+fn native_backend_matches_brute_force_on_1e5_rays_at_three_scales_with_both_leaf_layouts() {
     let mut rng = Rng::new(11, 0);
-    for scale in [1e-3f32, 1.0, 1e4] {
+    // Low: leaves gathered from the meshes; medium: stored packs.
+    for (scale, bvh_quality) in [
+        (1e-3f32, Quality::Medium),
+        (1.0, Quality::Low),
+        (1.0, Quality::Medium),
+        (1e4, Quality::Low),
+    ] {
         let scene = random_scene(&mut rng, scale);
-        let native = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        let options = BuildOptions {
+            bvh_quality,
+            ..BuildOptions::default()
+        };
+        let native = Accel::build(&scene, BackendKind::Rust, &options).unwrap();
         assert_eq!(native.name(), "rust");
         let (mut hits, mut occluded) = (0, 0);
         for _ in 0..100_000 {
@@ -116,7 +126,7 @@ fn native_backend_matches_brute_force_on_1e5_rays_at_three_scales() {
                 (Some(e), Some(g)) => {
                     hits += 1;
                     // Two primitives may share the exact t; then only t must agree.
-                    assert_eq!(e.t, g.t, "scale {scale}: {ray:?}");
+                    assert_eq!(e.t, g.t, "scale {scale}, {bvh_quality:?}: {ray:?}");
                     if (e.geom, e.prim) != (g.geom, g.prim) {
                         let other = &scene.shapes[g.geom as usize].geometry;
                         assert_eq!(other.intersect(g.prim, &ray).map(|h| h.t), Some(g.t));
@@ -125,10 +135,16 @@ fn native_backend_matches_brute_force_on_1e5_rays_at_three_scales() {
                     }
                 }
                 (None, None) => {}
-                (e, g) => panic!("scale {scale}: brute force {e:?}, native {g:?} for {ray:?}"),
+                (e, g) => panic!(
+                    "scale {scale}, {bvh_quality:?}: brute force {e:?}, native {g:?} for {ray:?}"
+                ),
             }
             let occ = native.occluded(&ray);
-            assert_eq!(occ, expected.is_some(), "occluded, scale {scale}: {ray:?}");
+            assert_eq!(
+                occ,
+                expected.is_some(),
+                "occluded, scale {scale}, {bvh_quality:?}: {ray:?}"
+            );
             occluded += occ as u32;
         }
         // The test only has teeth if many rays hit and many miss.
@@ -165,7 +181,6 @@ fn t_error(ray: &Ray, a: f32, b: f32) -> f32 {
 /// subtract the origin from the vertices first.
 #[test]
 fn embree_matches_native_on_1e5_rays_at_four_scales() {
-    use luz::accel::Quality;
     if !embree_compiled() {
         return;
     }

@@ -38,7 +38,7 @@ mod root;
 pub use quality::{Quality, Work};
 
 use crate::scene::Scene;
-use native::NativeBackend;
+use native::{Gathered, Native, NativeBackend, Packed};
 use root::RootShapes;
 use std::sync::Arc;
 
@@ -117,8 +117,11 @@ pub struct Accel {
     tree: AccelTree,
 }
 
+/// The native backend is two variants, one per leaf layout, so that each
+/// gets a render loop of its own.
 pub enum AccelTree {
-    Native(NativeBackend),
+    Native(NativeBackend<Packed>),
+    NativeGathered(NativeBackend<Gathered>),
     #[cfg(luz_embree)]
     Embree(embree::EmbreeBackend),
 }
@@ -131,13 +134,9 @@ impl Accel {
     ) -> Result<Self, AccelError> {
         let (root, in_root) = RootShapes::of(&scene.shapes);
         let work = Work::of(scene);
-        let native = || {
-            let quality = options.bvh_quality.native(work);
-            AccelTree::Native(NativeBackend::with_quality(
-                &scene.shapes,
-                &in_root,
-                quality,
-            ))
+        let native = || match Native::build(scene, &in_root, options.bvh_quality.native(work)) {
+            Native::Packed(b) => AccelTree::Native(b),
+            Native::Gathered(b) => AccelTree::NativeGathered(b),
         };
         let tree = match kind {
             BackendKind::Rust => native(),
@@ -156,7 +155,7 @@ impl Accel {
     /// The backend built: `Rust` or `Embree`, never `Auto`.
     pub fn kind(&self) -> BackendKind {
         match &self.tree {
-            AccelTree::Native(_) => BackendKind::Rust,
+            AccelTree::Native(_) | AccelTree::NativeGathered(_) => BackendKind::Rust,
             #[cfg(luz_embree)]
             AccelTree::Embree(_) => BackendKind::Embree,
         }
@@ -216,6 +215,7 @@ impl Backend for Accel {
     fn name(&self) -> &'static str {
         match &self.tree {
             AccelTree::Native(b) => b.name(),
+            AccelTree::NativeGathered(b) => b.name(),
             #[cfg(luz_embree)]
             AccelTree::Embree(b) => b.name(),
         }
@@ -224,6 +224,7 @@ impl Backend for Accel {
     fn intersect(&self, ray: &Ray) -> Option<PreliminaryHit> {
         match &self.tree {
             AccelTree::Native(b) => self.over(b).intersect(ray),
+            AccelTree::NativeGathered(b) => self.over(b).intersect(ray),
             #[cfg(luz_embree)]
             AccelTree::Embree(b) => self.over(b).intersect(ray),
         }
@@ -232,6 +233,7 @@ impl Backend for Accel {
     fn occluded(&self, ray: &Ray) -> bool {
         match &self.tree {
             AccelTree::Native(b) => self.over(b).occluded(ray),
+            AccelTree::NativeGathered(b) => self.over(b).occluded(ray),
             #[cfg(luz_embree)]
             AccelTree::Embree(b) => self.over(b).occluded(ray),
         }

@@ -11,12 +11,13 @@
 //! build is under 0.1 s and tracing speed is all that counts. `auto` picks
 //! `low` below a break-even number of samples per triangle and `medium`
 //! above, one per backend. Embree's lies near one sample per triangle or
-//! above. The native one moved to about half a sample per triangle on
-//! 2026-12-06, when the SAH build became twice as fast at 17.8M triangles:
-//! the Morton build then saved about 3.9 s of build and cost 0.38 s of
-//! tracing per million samples (docs/performance.md). For Embree, `auto`'s
-//! `low` is also compact (`RTC_SCENE_FLAG_COMPACT`: half the memory, 14%
-//! slower rays on the 17.8M mesh).
+//! above. The native one lies near a fifth of a sample per triangle since
+//! the `low` tree's leaves gather their triangles from the meshes
+//! (2026-12-06): at 17.8M triangles the Morton build saves about 3.6 s of
+//! build and 550 MB of memory, and its trace costs about 1.1 s more per
+//! million samples on two threads (docs/performance.md). For Embree,
+//! `auto`'s `low` is also compact (`RTC_SCENE_FLAG_COMPACT`: half the
+//! memory, 14% slower rays on the 17.8M mesh).
 
 use super::bvh::BuildQuality;
 use super::EmbreeQuality;
@@ -35,7 +36,7 @@ pub enum Quality {
 
 /// Samples per triangle below which `Auto` builds `Low`: the native
 /// backend's and Embree's.
-const NATIVE_LOW_BELOW: f64 = 0.5;
+const NATIVE_LOW_BELOW: f64 = 0.2;
 const EMBREE_LOW_BELOW: f64 = 1.0;
 
 impl Quality {
@@ -125,10 +126,10 @@ mod tests {
             samples: 1e6,
             triangles: 17.8e6,
         };
-        // 0.94 samples per triangle: the native SAH build pays, Embree's
+        // 0.24 samples per triangle: the native SAH build pays, Embree's
         // does not yet.
         let between = Work {
-            samples: 16.7e6,
+            samples: 4.2e6,
             triangles: 17.8e6,
         };
         assert_eq!(Quality::Auto.native(between), BuildQuality::Medium);

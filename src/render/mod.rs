@@ -263,6 +263,7 @@ pub fn render_with(
 ) -> (Film, RenderStats) {
     match accel.tree() {
         AccelTree::Native(t) => render(scene, &accel.over(t), options, progress),
+        AccelTree::NativeGathered(t) => render(scene, &accel.over(t), options, progress),
         #[cfg(luz_embree)]
         AccelTree::Embree(t) => render(scene, &accel.over(t), options, progress),
     }
@@ -278,6 +279,7 @@ pub fn render_into_with(
 ) -> RenderStats {
     match accel.tree() {
         AccelTree::Native(t) => render_into(scene, &accel.over(t), options, film, progress),
+        AccelTree::NativeGathered(t) => render_into(scene, &accel.over(t), options, film, progress),
         #[cfg(luz_embree)]
         AccelTree::Embree(t) => render_into(scene, &accel.over(t), options, film, progress),
     }

@@ -239,9 +239,9 @@ pub(crate) struct SettingsArgs {
     /// Image size as WIDTHxHEIGHT, overriding the scene's.
     #[arg(long, value_parser = parse_resolution)]
     pub(crate) resolution: Option<(u32, u32)>,
-    /// The native BVH's build: auto, low (Morton codes, quickest), medium
-    /// (binned SAH), high. auto: low below half a sample per triangle,
-    /// else medium.
+    /// The native BVH's build: auto, low (Morton codes, quickest, leaves
+    /// read from the meshes), medium (binned SAH), high. auto: low below a
+    /// fifth of a sample per triangle, else medium.
     #[arg(long, default_value = "auto")]
     pub(crate) bvh_quality: Quality,
     /// Embree's BVH quality: auto, low, medium, high. auto: low and compact
