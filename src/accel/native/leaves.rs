@@ -1,7 +1,7 @@
 //! The triangles of the meshes, numbered, and the two layouts of a leaf's
 //! packs: stored (`Packed`), or gathered from the meshes (`Gathered`).
 
-use super::pack::{intersect_pack, Nearest, PackRay, TriPack};
+use super::pack::{intersect_pack, Hit, Nearest, PackRay, TriPack};
 use crate::accel::bvh::PADDING;
 use crate::geometry::{has_zero_area, Geometry, Mesh};
 use crate::math::{Aabb, Vec3};
@@ -147,13 +147,7 @@ impl<'s> Source<'s> {
 pub trait Leaves: Send + Sync {
     /// The nearest hit below `t_max` among the triangles of the leaf at
     /// `slots[first..first + count]`: its `t`, triangle number, `u`, `v`.
-    fn nearest(
-        &self,
-        slots: &[u32],
-        leaf: (u32, u32),
-        r: &PackRay,
-        t_max: f32,
-    ) -> Option<(f32, (u32, f32, f32))>;
+    fn nearest(&self, slots: &[u32], leaf: (u32, u32), r: &PackRay, t_max: f32) -> Option<Hit>;
 
     /// Whether any triangle of the leaf is hit below `t_max`.
     fn any(&self, slots: &[u32], leaf: (u32, u32), r: &PackRay, t_max: f32) -> bool;
@@ -173,13 +167,7 @@ impl Packed {
 
 impl Leaves for Packed {
     #[inline(always)]
-    fn nearest(
-        &self,
-        _: &[u32],
-        leaf: (u32, u32),
-        r: &PackRay,
-        t_max: f32,
-    ) -> Option<(f32, (u32, f32, f32))> {
+    fn nearest(&self, _: &[u32], leaf: (u32, u32), r: &PackRay, t_max: f32) -> Option<Hit> {
         let mut nearest = Nearest::below(t_max);
         for pack in self.of(leaf) {
             nearest.test(|v, c| pack.coord(v, c), &pack.triangle, r);
@@ -233,13 +221,7 @@ fn slots_of(slots: &[u32], (first, count): (u32, u32)) -> std::slice::ChunksExac
 
 impl Leaves for Gathered {
     #[inline(always)]
-    fn nearest(
-        &self,
-        slots: &[u32],
-        leaf: (u32, u32),
-        r: &PackRay,
-        t_max: f32,
-    ) -> Option<(f32, (u32, f32, f32))> {
+    fn nearest(&self, slots: &[u32], leaf: (u32, u32), r: &PackRay, t_max: f32) -> Option<Hit> {
         let source = self.source();
         let mut nearest = Nearest::below(t_max);
         for slots in slots_of(slots, leaf) {

@@ -140,10 +140,13 @@ pub(super) fn intersect_pack(
     (mask, t, e1.mul(inv_det), e2.mul(inv_det))
 }
 
-/// The nearest pack hit so far: its `t` and triangle number, `u`, `v`.
+/// A triangle hit: its `t`, and its triangle number, `u` and `v`.
+pub type Hit = (f32, (u32, f32, f32));
+
+/// The nearest pack hit so far.
 pub(super) struct Nearest {
     t_max: f32,
-    pub(super) best: Option<(f32, (u32, f32, f32))>,
+    pub(super) best: Option<Hit>,
 }
 
 impl Nearest {
