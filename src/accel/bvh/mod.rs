@@ -141,6 +141,10 @@ pub const PADDING: u32 = u32::MAX;
 const MAX_DEPTH: usize = 64;
 /// Subtrees of at least this many primitives are built in parallel.
 const PARALLEL_THRESHOLD: usize = 4096;
+/// From this many primitives on, the binary tree's freed nodes (about
+/// 100 bytes a leaf) are handed back to the kernel before the caller
+/// allocates its own large buffers; below, they are a few megabytes.
+const RELEASE_FROM: usize = 1 << 16;
 
 pub struct Bvh {
     nodes: Vec<Node4>,
@@ -219,7 +223,9 @@ impl Bvh {
         };
         let depth = out.node(&root, 1);
         drop(root);
-        memory::release_freed_memory();
+        if order.len() >= RELEASE_FROM {
+            memory::release_freed_memory();
+        }
         Bvh {
             nodes: out.nodes,
             order: out.slots,

@@ -11,19 +11,19 @@ use crate::simd::F4;
 use rayon::prelude::*;
 use std::sync::Arc;
 
-/// The triangles of several meshes, numbered one after the other.
+/// The triangles of several meshes, numbered one after the other (the
+/// numbers are the tree's primitives, so they fit in u32 as its slots do).
 #[derive(Default)]
 pub(super) struct Triangles<'a> {
-    meshes: Vec<(u32, &'a Mesh)>,
-    /// First triangle number of each mesh.
-    first: Vec<usize>,
+    meshes: Vec<&'a Mesh>,
+    starts: MeshStarts,
     count: usize,
 }
 
 impl<'a> Triangles<'a> {
     pub(super) fn push(&mut self, geom: u32, mesh: &'a Mesh) {
-        self.meshes.push((geom, mesh));
-        self.first.push(self.count);
+        self.meshes.push(mesh);
+        self.starts.0.push((self.count as u32, geom));
         self.count += mesh.triangle_count();
     }
 
@@ -34,19 +34,13 @@ impl<'a> Triangles<'a> {
     /// Mesh and triangle of triangle number `i`.
     #[inline]
     fn get(&self, i: usize) -> (&'a Mesh, u32) {
-        let m = self.first.partition_point(|&f| f <= i) - 1;
-        (self.meshes[m].1, (i - self.first[m]) as u32)
+        let (m, prim) = self.starts.mesh_of(i as u32);
+        (self.meshes[m], prim)
     }
 
     /// What `MeshStarts::locate` needs once the meshes are gone.
     pub(super) fn starts(&self) -> MeshStarts {
-        MeshStarts(
-            self.meshes
-                .iter()
-                .zip(&self.first)
-                .map(|(&(geom, _), &first)| (first as u32, geom))
-                .collect(),
-        )
+        self.starts.clone()
     }
 
     /// Empty for a triangle of zero area, which `intersect_triangle` never
@@ -83,16 +77,22 @@ impl<'a> Triangles<'a> {
 }
 
 /// The first triangle number and scene id of each mesh of `Triangles`.
-#[derive(Clone)]
+#[derive(Clone, Default)]
 pub(super) struct MeshStarts(Vec<(u32, u32)>);
 
 impl MeshStarts {
+    /// Index (among the meshes) and triangle of triangle number `triangle`.
+    #[inline]
+    fn mesh_of(&self, triangle: u32) -> (usize, u32) {
+        let m = self.0.partition_point(|&(first, _)| first <= triangle) - 1;
+        (m, triangle - self.0[m].0)
+    }
+
     /// Scene id and triangle of triangle number `triangle`.
     #[inline]
     pub(super) fn locate(&self, triangle: u32) -> (u32, u32) {
-        let m = self.0.partition_point(|&(first, _)| first <= triangle) - 1;
-        let (first, geom) = self.0[m];
-        (geom, triangle - first)
+        let (m, prim) = self.mesh_of(triangle);
+        (self.0[m].1, prim)
     }
 }
 

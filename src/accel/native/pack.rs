@@ -1,11 +1,10 @@
 //! Four triangles tested at once: their vertices in lanes, and the ray in
 //! the watertight test's frame, splatted.
 
+use crate::accel::bvh::PADDING;
 use crate::geometry::{exact_zeros, ShearedRay};
 use crate::math::{Ray, Vec3};
 use crate::simd::F4;
-
-use crate::accel::bvh::PADDING;
 
 /// Four triangles: `p[v][c][k]` is coordinate `c` of vertex `v` of
 /// triangle `k`; then their triangle numbers (`Triangles`), read only for
