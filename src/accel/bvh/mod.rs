@@ -116,6 +116,12 @@ pub struct BuildSettings {
     /// Cost of testing one pack of `align` primitives, relative to a visit
     /// of one 4-wide node (the SAH's two constants).
     pub leaf_cost: f32,
+    /// A box that holds every usable primitive's centroid, where the
+    /// caller has one for less than a pass over the primitives (a mesh's
+    /// vertex bounds): the Morton build then quantizes its codes within it
+    /// instead of finding the centroids' bounds first. A looser box only
+    /// costs the codes resolution.
+    pub centroid_bounds: Option<Aabb>,
 }
 
 impl Default for BuildSettings {
@@ -124,6 +130,7 @@ impl Default for BuildSettings {
             quality: BuildQuality::Medium,
             align: 1,
             leaf_cost: 1.0,
+            centroid_bounds: None,
         }
     }
 }
@@ -197,7 +204,13 @@ impl Bvh {
             preset.pack_cost = settings.leaf_cost;
         }
         let (root, order) = if settings.quality == BuildQuality::Low {
-            morton::build(count, &box_of, preset.max_leaf, align, progress)
+            morton::build(
+                count,
+                &box_of,
+                settings.centroid_bounds,
+                (preset.max_leaf, align),
+                progress,
+            )
         } else {
             let mut refs = prim_refs(count, box_of);
             let root = BuildCtx {

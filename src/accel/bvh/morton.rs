@@ -25,24 +25,29 @@ const TOP: i32 = 3 * BITS as i32 - 1;
 const UNUSABLE: u64 = u64::MAX;
 
 /// The tree over the finite, non-empty boxes among `box_of(0..count)`,
-/// with leaves of at most `max_leaf` primitives; and the primitive of each
-/// slot. It keeps only a code and an index per primitive (8 bytes, where a
-/// reference with its box takes 32) and asks `box_of` again for the
-/// leaves' bounds: on large meshes fresh memory, which the kernel must
-/// clear page by page, costs more than recomputing a box.
+/// with leaves of at most `max_leaf` primitives starting at multiples of
+/// `align`; and the primitive of each slot. The codes are quantized within
+/// `centroid_bounds` where the caller knows them, else within the
+/// centroids' bounds, found in one more pass. It keeps only a code and an
+/// index per primitive (8 bytes, where a reference with its box takes 32)
+/// and asks `box_of` again for the leaves' bounds: on large meshes fresh
+/// memory, which the kernel must clear page by page, costs more than
+/// recomputing a box.
 pub(super) fn build(
     count: usize,
     box_of: &(impl Fn(usize) -> Aabb + Sync),
-    max_leaf: usize,
-    align: usize,
+    centroid_bounds: Option<Aabb>,
+    (max_leaf, align): (usize, usize),
     progress: &Reporter,
 ) -> (BuildNode, Vec<u32>) {
     let valid = |i: usize| Some(box_of(i)).filter(usable);
-    let centroids = (0..count)
-        .into_par_iter()
-        .with_min_len(PARALLEL_THRESHOLD)
-        .filter_map(|i| valid(i).map(|b| Aabb::new(b.centroid(), b.centroid())))
-        .reduce(|| Aabb::EMPTY, Aabb::union);
+    let centroids = centroid_bounds.unwrap_or_else(|| {
+        (0..count)
+            .into_par_iter()
+            .with_min_len(PARALLEL_THRESHOLD)
+            .filter_map(|i| valid(i).map(|b| Aabb::new(b.centroid(), b.centroid())))
+            .reduce(|| Aabb::EMPTY, Aabb::union)
+    });
     let cells = (1u32 << BITS) as f32 * (1.0 - 1e-6);
     let scale = (centroids.max - centroids.min)
         .recip()

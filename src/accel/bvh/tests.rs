@@ -145,6 +145,33 @@ fn aligned_leaves_pad_and_match_brute_force() {
     }
 }
 
+/// The Morton build given the centroids' bounds, exact, ten times too
+/// loose, or too tight (codes outside are clamped): every primitive still
+/// gets its slot, and hits still match brute force.
+#[test]
+fn morton_codes_within_given_centroid_bounds() {
+    let mut rng = Rng::new(12, 1);
+    let tris = soup(&mut rng, 2000, 1.0, 0.08);
+    let boxes = boxes_of(&tris);
+    let centroids = boxes.iter().fold(Aabb::EMPTY, |b, t| b.grow(t.centroid()));
+    let centre = centroids.centroid();
+    let scaled = |k: f32| {
+        Aabb::new(
+            centre + k * (centroids.min - centre),
+            centre + k * (centroids.max - centre),
+        )
+    };
+    for given in [centroids, scaled(10.0), scaled(0.5)] {
+        let settings = BuildSettings {
+            quality: BuildQuality::Low,
+            align: 4,
+            centroid_bounds: Some(given),
+            ..BuildSettings::default()
+        };
+        check_aligned(&tris, &Bvh::build_with(&boxes, &settings), &mut rng);
+    }
+}
+
 fn check_aligned(tris: &[Tri], bvh: &Bvh, rng: &mut Rng) {
     let order = bvh.primitive_indices();
     assert_eq!(order.len() % 4, 0);

@@ -43,6 +43,17 @@ impl<'a> Triangles<'a> {
         self.starts.clone()
     }
 
+    /// Bounds of the meshes' vertices, which hold every triangle's
+    /// centroid: one sequential pass, where the triangles' own would
+    /// gather three vertices each.
+    pub(super) fn vertex_bounds(&self) -> Aabb {
+        self.meshes
+            .par_iter()
+            .flat_map(|mesh| mesh.positions.par_chunks(1 << 16))
+            .map(Aabb::from_points)
+            .reduce(|| Aabb::EMPTY, Aabb::union)
+    }
+
     /// Empty for a triangle of zero area, which `intersect_triangle` never
     /// hits: the tree leaves it out.
     pub(super) fn bounds(&self, i: usize) -> Aabb {

@@ -75,6 +75,7 @@ impl Native {
                     quality,
                     align: 4,
                     leaf_cost: 1.0,
+                    centroid_bounds: (quality == BuildQuality::Low).then(|| meshes.vertex_bounds()),
                 };
                 Bvh::build_reporting(meshes.count(), |i| meshes.bounds(i), &settings, &progress)
             },
@@ -86,6 +87,7 @@ impl Native {
                         quality,
                         align: 1,
                         leaf_cost: 2.0,
+                        centroid_bounds: None,
                     },
                 )
             },
