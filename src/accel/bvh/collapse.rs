@@ -43,10 +43,13 @@ impl Collapse<'_> {
                 out.count[0] = *count;
             }
             BuildNode::Inner { children } => {
-                let mut kids: Vec<&(Aabb, BuildNode)> = children.iter().collect();
+                // At most four: a fixed array, not a heap allocation per node.
+                let mut kids: [&(Aabb, BuildNode); 4] = [&children[0]; 4];
+                kids[1] = &children[1];
+                let mut len = 2;
                 // Open the largest inner child until there are four.
-                while kids.len() < 4 {
-                    let widest = kids
+                while len < 4 {
+                    let widest = kids[..len]
                         .iter()
                         .enumerate()
                         .filter(|(_, k)| matches!(k.1, BuildNode::Inner { .. }))
@@ -56,12 +59,16 @@ impl Collapse<'_> {
                     let BuildNode::Inner { children } = &kids[w].1 else {
                         unreachable!()
                     };
-                    kids.swap_remove(w);
-                    kids.extend(children.iter());
+                    // As `Vec::swap_remove` then two pushes.
+                    kids[w] = kids[len - 1];
+                    kids[len - 1] = &children[0];
+                    kids[len] = &children[1];
+                    len += 1;
                 }
+                let kids = &mut kids[..len];
                 // Leaves first: their slots then sit next to each other.
                 kids.sort_by_key(|k| matches!(k.1, BuildNode::Inner { .. }));
-                for (k, (b, kid)) in kids.into_iter().enumerate() {
+                for (k, (b, kid)) in kids.iter().copied().enumerate() {
                     out.set_box(k, b);
                     match kid {
                         BuildNode::Leaf { first, count } => {
