@@ -2,6 +2,7 @@
 //! `translate`, with the material groups of an OBJ file's faces.
 
 use super::*;
+use crate::geometry::first_outside_bounds;
 use crate::scene::mesh_io::{
     drop_degenerate_grouped, read_mesh, MaterialGroups, MeshError, MeshFile,
 };
@@ -61,30 +62,22 @@ impl Ctx<'_> {
         }
         // Every vertex where it lands in the world, the file's own
         // or transformed, within the coordinates luz can intersect.
-        {
-            use rayon::prelude::*;
-            if let Some((i, p)) = mesh
-                .positions
-                .par_iter()
-                .enumerate()
-                .find_first(|(_, p)| !within_bounds(**p))
-            {
-                let field = ["scale", "translate", "rotate"]
-                    .into_iter()
-                    .zip([
-                        sd.scale.is_some(),
-                        sd.translate.is_some(),
-                        sd.rotate.is_some(),
-                    ])
-                    .find_map(|(f, given)| given.then_some(f))
-                    .unwrap_or("file");
-                let how = if transformed { " once transformed" } else { "" };
-                return Err(self.field_error(
-                    span,
-                    field,
-                    format!("vertex {i} of the mesh{how}: {}", outside(*p)),
-                ));
-            }
+        if let Some((i, p)) = first_outside_bounds(&mesh.positions) {
+            let field = ["scale", "translate", "rotate"]
+                .into_iter()
+                .zip([
+                    sd.scale.is_some(),
+                    sd.translate.is_some(),
+                    sd.rotate.is_some(),
+                ])
+                .find_map(|(f, given)| given.then_some(f))
+                .unwrap_or("file");
+            let how = if transformed { " once transformed" } else { "" };
+            return Err(self.field_error(
+                span,
+                field,
+                format!("vertex {i} of the mesh{how}: {}", outside(p)),
+            ));
         }
         if transformed {
             // A very uneven scale can flatten triangles to lines.

@@ -366,3 +366,33 @@ fn opacity_is_a_number_or_a_texture() {
         assert!(message.contains(says), "{message}");
     }
 }
+
+/// A mesh placed beyond ±1e12 is refused, naming the field that put it
+/// there and its first vertex outside; the same mesh in range loads.
+#[test]
+fn mesh_vertices_beyond_the_bounds_name_the_first() {
+    let dir = std::env::temp_dir().join(format!("luz-mesh-bounds-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n\
+               property float z\nelement face 1\nproperty list uchar int vertex_indices\n\
+               end_header\n0 0 0\n1e11 0 0\n0 1 0\n3 0 1 2\n";
+    std::fs::write(dir.join("t.ply"), ply).unwrap();
+    let scene = dir.join("s.toml");
+    let mesh =
+        |extra: &str| format!("{MINIMAL}[[shapes]]\ntype = \"mesh\"\nfile = \"t.ply\"\n{extra}");
+    let loaded = load_str(&mesh("scale = 10\n"), &scene).unwrap();
+    assert_eq!(loaded.shapes.len(), 1);
+    let e = load_str(&mesh("scale = 11\n"), &scene).expect_err("beyond");
+    assert!(
+        e.message.contains("`scale`")
+            && e.message.contains("vertex 1 of the mesh once transformed"),
+        "{e}"
+    );
+    let e = load_str(&mesh("translate = [9.5e11, 0, 0]\n"), &scene).expect_err("beyond");
+    assert!(
+        e.message.contains("`translate`")
+            && e.message.contains("vertex 1 of the mesh once transformed"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -7,7 +7,7 @@ use super::props::Props;
 use super::xml::Elem;
 use super::Builder;
 use crate::echo::echo;
-use crate::geometry::{within_bounds, Geometry, Mesh, Quad, Sphere};
+use crate::geometry::{first_outside_bounds, within_bounds, Geometry, Mesh, Quad, Sphere};
 use crate::math::Vec2;
 use crate::scene::mesh_io::{
     drop_degenerate_grouped, read_mesh, read_serialized, MaterialGroups, MeshError, MeshFile,
@@ -255,12 +255,7 @@ type Piece = (Geometry, u32, Option<UvTransform>);
 
 /// Every vertex within the coordinates luz can intersect.
 fn checked(e: &Elem, mesh: Mesh) -> Result<Mesh, SceneError> {
-    if let Some((i, p)) = mesh
-        .positions
-        .iter()
-        .enumerate()
-        .find(|(_, p)| !within_bounds(**p))
-    {
+    if let Some((i, p)) = first_outside_bounds(&mesh.positions) {
         return Err(e.loc.error(format!(
             "vertex {i} of the shape, at {p}, lies beyond ±1e12 (or is not finite) once transformed"
         )));
