@@ -119,8 +119,9 @@ pub struct BuildSettings {
     /// A box that holds every usable primitive's centroid, where the
     /// caller has one for less than a pass over the primitives (a mesh's
     /// vertex bounds): the Morton build then quantizes its codes within it
-    /// instead of finding the centroids' bounds first. A looser box only
-    /// costs the codes resolution.
+    /// instead of finding the centroids' bounds first, unless a sample of
+    /// the centroids shows it much larger than they are
+    /// (`morton::centroid_grid`).
     pub centroid_bounds: Option<Aabb>,
 }
 

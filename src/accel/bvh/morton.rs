@@ -27,27 +27,20 @@ const UNUSABLE: u64 = u64::MAX;
 /// The tree over the finite, non-empty boxes among `box_of(0..count)`,
 /// with leaves of at most `max_leaf` primitives starting at multiples of
 /// `align`; and the primitive of each slot. The codes are quantized within
-/// `centroid_bounds` where the caller knows them, else within the
-/// centroids' bounds, found in one more pass. It keeps only a code and an
-/// index per primitive (8 bytes, where a reference with its box takes 32)
-/// and asks `box_of` again for the leaves' bounds: on large meshes fresh
-/// memory, which the kernel must clear page by page, costs more than
-/// recomputing a box.
+/// the centroids' bounds, or within `given` where [`centroid_grid`] finds
+/// it tight enough. It keeps only a code and an index per primitive (8
+/// bytes, where a reference with its box takes 32) and asks `box_of` again
+/// for the leaves' bounds: on large meshes fresh memory, which the kernel
+/// must clear page by page, costs more than recomputing a box.
 pub(super) fn build(
     count: usize,
     box_of: &(impl Fn(usize) -> Aabb + Sync),
-    centroid_bounds: Option<Aabb>,
+    given: Option<Aabb>,
     (max_leaf, align): (usize, usize),
     progress: &Reporter,
 ) -> (BuildNode, Vec<u32>) {
     let valid = |i: usize| Some(box_of(i)).filter(usable);
-    let centroids = centroid_bounds.unwrap_or_else(|| {
-        (0..count)
-            .into_par_iter()
-            .with_min_len(PARALLEL_THRESHOLD)
-            .filter_map(|i| valid(i).map(|b| Aabb::new(b.centroid(), b.centroid())))
-            .reduce(|| Aabb::EMPTY, Aabb::union)
-    });
+    let centroids = centroid_grid(count, &valid, given);
     let cells = (1u32 << BITS) as f32 * (1.0 - 1e-6);
     let scale = (centroids.max - centroids.min)
         .recip()
@@ -84,6 +77,45 @@ pub(super) fn build(
         .map(|&k| k as u32)
         .collect_into_vec(&mut order);
     (root, order)
+}
+
+/// Primitives a sample of the centroids takes one in every so many of, to
+/// judge a given box: about 4,096 of them.
+const SAMPLES: usize = 4096;
+
+/// The box the codes are quantized within: `given`, a box that holds every
+/// centroid (the meshes' vertex bounds), when it is finite and a sample of
+/// the centroids spans at least an eighth of its largest side; else the
+/// centroids' bounds, from a pass over all primitives. A box much larger
+/// than the centroids (a stray vertex no triangle uses, far away) would
+/// put them all in a few cells, and the tree would halve them in index
+/// order. A centroid outside the box is clamped into the grid's border
+/// cells: its leaf is less tight, never lost.
+fn centroid_grid(
+    count: usize,
+    valid: &(impl Fn(usize) -> Option<Aabb> + Sync),
+    given: Option<Aabb>,
+) -> Aabb {
+    let centroids_of = |i: usize| valid(i).map(|b| Aabb::new(b.centroid(), b.centroid()));
+    let largest_side = |b: Aabb| (b.max - b.min).max_element();
+    let finite = |b: &Aabb| {
+        let sides = b.max - b.min;
+        b.min.is_finite() && sides.is_finite() && sides.cmpge(Vec3::ZERO).all()
+    };
+    if let Some(given) = given.filter(finite) {
+        let sample = (0..count)
+            .step_by((count / SAMPLES).max(1))
+            .filter_map(centroids_of)
+            .fold(Aabb::EMPTY, Aabb::union);
+        if largest_side(sample) >= largest_side(given) / 8.0 {
+            return given;
+        }
+    }
+    (0..count)
+        .into_par_iter()
+        .with_min_len(PARALLEL_THRESHOLD)
+        .filter_map(centroids_of)
+        .reduce(|| Aabb::EMPTY, Aabb::union)
 }
 
 /// Spreads the low `BITS` bits of `x` two zeros apart.

@@ -145,9 +145,11 @@ fn aligned_leaves_pad_and_match_brute_force() {
     }
 }
 
-/// The Morton build given the centroids' bounds, exact, ten times too
-/// loose, or too tight (codes outside are clamped): every primitive still
-/// gets its slot, and hits still match brute force.
+/// The Morton build given a box for the centroids: exact, four times
+/// looser (both used), a hundred times looser (a sample shows it too
+/// large: the centroids' own bounds are used), half-size (codes outside
+/// are clamped), flat on an axis, infinite, NaN or empty (not used). Every
+/// primitive still gets its slot, and hits still match brute force.
 #[test]
 fn morton_codes_within_given_centroid_bounds() {
     let mut rng = Rng::new(12, 1);
@@ -161,7 +163,22 @@ fn morton_codes_within_given_centroid_bounds() {
             centre + k * (centroids.max - centre),
         )
     };
-    for given in [centroids, scaled(10.0), scaled(0.5)] {
+    let flat = Aabb::new(
+        centroids.min,
+        Vec3::new(centroids.max.x, centroids.min.y, centroids.max.z),
+    );
+    let infinite = Aabb::new(Vec3::splat(f32::NEG_INFINITY), Vec3::splat(f32::INFINITY));
+    let nan = Aabb::new(centroids.min, Vec3::splat(f32::NAN));
+    for given in [
+        centroids,
+        scaled(4.0),
+        scaled(100.0),
+        scaled(0.5),
+        flat,
+        infinite,
+        nan,
+        Aabb::EMPTY,
+    ] {
         let settings = BuildSettings {
             quality: BuildQuality::Low,
             align: 4,
