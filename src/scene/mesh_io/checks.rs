@@ -167,8 +167,9 @@ fn any_degenerate(positions: &[Vec3], block: &[[u32; 3]]) -> bool {
 }
 
 /// Drops the degenerate triangles (see [`is_degenerate`]). Most meshes have
-/// none, so a parallel search comes first (blocks of [`classify`], the
-/// exact test only near its threshold); when it finds one, the triangles
+/// none, so a parallel search comes first (blocks of the f32 test, then
+/// [`classify`] where it is not sure, the exact test only near the
+/// threshold); when it finds one, the triangles
 /// are marked in parallel and the marks drive one serial compaction.
 /// Returns how many it dropped.
 pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) -> usize {
@@ -225,19 +226,22 @@ mod tests {
         let mut x = 0x9e37_79b9_7f4a_7c15u64;
         let mut tris = Vec::new();
         for k in 0..200_000 {
-            let scale = [1e-30f32, 1e-20, 1e-6, 1.0, 1e6, 1e30][k % 6];
+            // Every case meets every scale.
+            let scale = [1e-30f32, 1e-20, 1e-6, 1.0, 1e6, 1e30][(k / 4) % 6];
             let v = |x: &mut u64| Vec3::new(unit(x), unit(x), unit(x)) * scale;
             let a = v(&mut x);
-            let b = v(&mut x);
+            let mut b = v(&mut x);
             let c = match k % 4 {
                 0 => v(&mut x),
                 1 => a,
                 2 => a + (b - a) * unit(&mut x),
                 _ => {
-                    // Angle at `a` near 1e-6 rad, nudged by a few ulps.
+                    // Angle at `a` near the threshold of 1e-6 rad (within
+                    // ±1.5e-7 once `c` is nudged by a few ulps), on both
+                    // sides of it.
+                    b = a + Vec3::X * scale;
                     let h = 1e-6 * (1.0 + 1e-5 * unit(&mut x));
-                    let d = Vec3::new(1.0, h, 0.0) * scale;
-                    let c = a + d;
+                    let c = a + Vec3::new(1.0, h, 0.0) * scale;
                     Vec3::from_array(c.to_array().map(|f| {
                         f32::from_bits(f.to_bits().wrapping_add((xorshift(&mut x) % 5) as u32))
                     }))
@@ -260,10 +264,19 @@ mod tests {
             }
         }
         assert!(want > 1000 && want < tris.len() - 1000, "{want}");
-        // The f32 test decides the plain random triangles (a quarter) at
-        // the scales within its range (two or three of six), and leaves
-        // the others to the f64 one.
-        assert!(sure > tris.len() / 8 && sure < tris.len() / 4, "{sure}");
+        // The f32 test decides the plain random triangles (a quarter of
+        // all) at the scales within its range (1 and 1e6, a third), and
+        // leaves the others to the f64 one, the near-threshold ones among
+        // them.
+        let random = tris.len() / 4;
+        assert!(sure > random / 4 && sure <= random / 2, "{sure}");
+        // Both sides of the threshold are met there.
+        let near = tris.iter().skip(3).step_by(4);
+        let near_degenerate = near.clone().filter(|p| is_degenerate(**p)).count();
+        assert!(
+            near_degenerate > 1000 && near_degenerate < near.count() - 1000,
+            "{near_degenerate}"
+        );
         let mut kept = indices.clone();
         let dropped = drop_degenerate(&positions, &mut kept);
         let mut old = indices.clone();
