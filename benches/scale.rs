@@ -297,7 +297,7 @@ fn main() -> ExitCode {
         // Every tool starts with the mesh in the file cache (otherwise the
         // first one alone pays for reading it from the disk); then this
         // process reads the PLY once more, timed: a row of its own.
-        match ply_read(&mesh) {
+        match ply_read(&mesh, o.threads as usize) {
             Ok((secs, bytes)) => println!(
                 "| {level} | {triangles} | PLY read | {secs:.3} | {:.1} MB, {:.2} GB/s | - |",
                 bytes / 1e6,
@@ -368,9 +368,10 @@ fn main() -> ExitCode {
 }
 
 /// Reads `path` through once, a megabyte at a time, so that it is in the
-/// file cache; then loads it as a mesh (`luz`'s reader alone: no placing,
-/// no tree). Returns the load's seconds and the file's bytes.
-fn ply_read(path: &Path) -> Result<(f64, f64), String> {
+/// file cache; then loads it as a mesh on `threads` threads (`luz`'s reader
+/// alone: no placing, no tree). Returns the load's seconds and the file's
+/// bytes.
+fn ply_read(path: &Path, threads: usize) -> Result<(f64, f64), String> {
     use std::io::Read;
     let mut file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let mut buffer = vec![0u8; 1 << 20];
@@ -381,8 +382,14 @@ fn ply_read(path: &Path) -> Result<(f64, f64), String> {
             n => bytes += n,
         }
     }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| e.to_string())?;
     let start = Instant::now();
-    let mesh = luz::scene::mesh_io::load_mesh(path).map_err(|e| e.to_string())?;
+    let mesh = pool
+        .install(|| luz::scene::mesh_io::load_mesh(path))
+        .map_err(|e| e.to_string())?;
     let secs = start.elapsed().as_secs_f64();
     drop(mesh);
     Ok((secs, bytes as f64))
