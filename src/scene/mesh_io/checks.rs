@@ -89,15 +89,19 @@ pub(crate) fn is_degenerate(p @ [a, b, c]: [Vec3; 3]) -> bool {
     e1.cross(e2).length() <= 1e-6 * e1.length() * e2.length()
 }
 
-/// How [`is_degenerate`] answers for `p`, from squared lengths (no square
-/// roots, no branches, so a loop of it vectorises): `SURE_NO`, `SURE_YES`,
-/// or `UNSURE` within a relative 1e-6 of the threshold, where only
-/// [`is_degenerate`] itself decides. Every finite f32 triangle's squared f64
+/// How [`is_degenerate`] answers for `p`: `SURE_NO` straight from the f32
+/// test where that is sure ([`surely_not_degenerate`], most triangles),
+/// else from squared f64 lengths (no square roots, no branches):
+/// `SURE_NO`, `SURE_YES`, or `UNSURE` within a relative 1e-6 of the
+/// threshold, where only [`is_degenerate`] itself decides. Every finite f32 triangle's squared f64
 /// lengths and products stay inside f64's normal range (≤ 1e156, ≥ 1e-180),
 /// and the rounding of either form is a few ulps (1e-15 relative), far
 /// inside the margin, so a sure answer is [`is_degenerate`]'s.
 #[inline(always)]
 fn classify(p @ [a, b, c]: [Vec3; 3]) -> u8 {
+    if surely_not_degenerate(p) {
+        return SURE_NO;
+    }
     let zero = crate::geometry::has_zero_area(p);
     let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
     let (e1, e2) = (b - a, c - a);
@@ -141,9 +145,6 @@ const UNSURE: u8 = 2;
 #[inline(always)]
 fn degenerate_at(positions: &[Vec3], t: &[u32; 3]) -> bool {
     let p = t.map(|i| positions[i as usize]);
-    if surely_not_degenerate(p) {
-        return false;
-    }
     match classify(p) {
         SURE_NO => false,
         SURE_YES => true,
@@ -151,16 +152,12 @@ fn degenerate_at(positions: &[Vec3], t: &[u32; 3]) -> bool {
     }
 }
 
-/// Whether any triangle of `block` is degenerate: one pass of the f32
-/// test, [`classify`] where it is not sure, then the exact test only for
-/// the triangles that is not sure of either.
+/// Whether any triangle of `block` is degenerate: one pass of
+/// [`classify`], then the exact test only for the unsure ones.
 fn any_degenerate(positions: &[Vec3], block: &[[u32; 3]]) -> bool {
     let mut seen = 0u8;
     for t in block {
-        let p = t.map(|i| positions[i as usize]);
-        if !surely_not_degenerate(p) {
-            seen |= 1 << classify(p);
-        }
+        seen |= 1 << classify(t.map(|i| positions[i as usize]));
     }
     seen & (1 << SURE_YES) != 0
         || seen & (1 << UNSURE) != 0 && block.iter().any(|t| degenerate_at(positions, t))
