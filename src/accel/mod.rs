@@ -38,7 +38,7 @@ mod root;
 pub use quality::{Quality, Work};
 
 use crate::scene::Scene;
-use native::{Gathered, Native, NativeBackend, Packed};
+use native::{Gathered, NativeBackend, Packed};
 use root::RootShapes;
 use std::sync::Arc;
 
@@ -134,10 +134,7 @@ impl Accel {
     ) -> Result<Self, AccelError> {
         let (root, in_root) = RootShapes::of(&scene.shapes);
         let work = Work::of(scene);
-        let native = || match Native::build(scene, &in_root, options.bvh_quality.native(work)) {
-            Native::Packed(b) => AccelTree::Native(b),
-            Native::Gathered(b) => AccelTree::NativeGathered(b),
-        };
+        let native = || native::build(scene, &in_root, options.bvh_quality.native(work));
         let tree = match kind {
             BackendKind::Rust => native(),
             #[cfg(luz_embree)]

@@ -29,7 +29,7 @@ mod pack;
 pub use leaves::{Gathered, Packed};
 
 use super::bvh::{BuildQuality, BuildSettings, Bvh, TravRay};
-use super::Tree;
+use super::{AccelTree, Tree};
 use crate::geometry::{Geometry, PreliminaryHit};
 use crate::math::Ray;
 use crate::meter::{Step, StepKind};
@@ -38,82 +38,75 @@ use leaves::{Leaves, MeshStarts, Triangles};
 use pack::PackRay;
 use std::sync::Arc;
 
-/// The native backend, with the leaf layout its build chose.
-pub enum Native {
-    Packed(NativeBackend<Packed>),
-    Gathered(NativeBackend<Gathered>),
-}
-
-impl Native {
-    /// The trees over `scene`'s shapes, less those `in_root` (which `Accel`
-    /// tests), built at `quality`: leaves gathered after the `Low` build,
-    /// stored after the others.
-    pub fn build(scene: &Arc<Scene>, in_root: &[bool], quality: BuildQuality) -> Self {
-        let mut meshes = Triangles::default();
-        let mut boxes = Vec::new();
-        let mut analytic = Vec::new();
-        for (geom, shape) in scene.shapes.iter().enumerate() {
-            if in_root[geom] {
-                continue;
-            }
-            match &shape.geometry {
-                Geometry::Mesh(m) => meshes.push(geom as u32, m),
-                g => {
-                    boxes.push(g.primitive_bounds(0).expect("planes are root shapes"));
-                    analytic.push((geom as u32, g.clone()));
-                }
+/// The native backend's trees over `scene`'s shapes, less those `in_root`
+/// (which `Accel` tests), built at `quality`: leaves gathered after the
+/// `Low` build, stored after the others; the `AccelTree` variant is the
+/// leaf layout's.
+pub fn build(scene: &Arc<Scene>, in_root: &[bool], quality: BuildQuality) -> AccelTree {
+    let mut meshes = Triangles::default();
+    let mut boxes = Vec::new();
+    let mut analytic = Vec::new();
+    for (geom, shape) in scene.shapes.iter().enumerate() {
+        if in_root[geom] {
+            continue;
+        }
+        match &shape.geometry {
+            Geometry::Mesh(m) => meshes.push(geom as u32, m),
+            g => {
+                boxes.push(g.primitive_bounds(0).expect("planes are root shapes"));
+                analytic.push((geom as u32, g.clone()));
             }
         }
-        let _step = Step::begin(
-            StepKind::BuildTree { backend: "rust" },
-            meshes.count() as u64,
-        );
-        let progress = Step::current();
-        let (tri_bvh, analytic_bvh) = rayon::join(
-            || {
-                let settings = BuildSettings {
+    }
+    let _step = Step::begin(
+        StepKind::BuildTree { backend: "rust" },
+        meshes.count() as u64,
+    );
+    let progress = Step::current();
+    let (tri_bvh, analytic_bvh) = rayon::join(
+        || {
+            let settings = BuildSettings {
+                quality,
+                align: 4,
+                leaf_cost: 1.0,
+                centroid_bounds: (quality == BuildQuality::Low).then(|| meshes.vertex_bounds()),
+            };
+            Bvh::build_reporting(meshes.count(), |i| meshes.bounds(i), &settings, &progress)
+        },
+        // An analytic shape costs more than a box test: small leaves.
+        || {
+            Bvh::build_with(
+                &boxes,
+                &BuildSettings {
                     quality,
-                    align: 4,
-                    leaf_cost: 1.0,
-                    centroid_bounds: (quality == BuildQuality::Low).then(|| meshes.vertex_bounds()),
-                };
-                Bvh::build_reporting(meshes.count(), |i| meshes.bounds(i), &settings, &progress)
-            },
-            // An analytic shape costs more than a box test: small leaves.
-            || {
-                Bvh::build_with(
-                    &boxes,
-                    &BuildSettings {
-                        quality,
-                        align: 1,
-                        leaf_cost: 2.0,
-                        centroid_bounds: None,
-                    },
-                )
-            },
-        );
-        let mesh_starts = meshes.starts();
-        let analytic = analytic_bvh
-            .primitive_indices()
-            .iter()
-            .map(|&i| analytic[i as usize].clone())
-            .collect();
-        let backend = NativeBackend {
-            tri_bvh,
-            leaves: (),
-            mesh_starts,
-            analytic_bvh,
-            analytic,
-        };
-        match quality {
-            BuildQuality::Low => {
-                let gathered = Gathered::new(scene.clone(), backend.mesh_starts.clone());
-                Self::Gathered(backend.with_leaves(gathered))
-            }
-            _ => {
-                let packs = meshes.packs(backend.tri_bvh.primitive_indices());
-                Self::Packed(backend.with_leaves(packs))
-            }
+                    align: 1,
+                    leaf_cost: 2.0,
+                    centroid_bounds: None,
+                },
+            )
+        },
+    );
+    let mesh_starts = meshes.starts();
+    let analytic = analytic_bvh
+        .primitive_indices()
+        .iter()
+        .map(|&i| analytic[i as usize].clone())
+        .collect();
+    let backend = NativeBackend {
+        tri_bvh,
+        leaves: (),
+        mesh_starts,
+        analytic_bvh,
+        analytic,
+    };
+    match quality {
+        BuildQuality::Low => {
+            let gathered = Gathered::new(scene.clone(), backend.mesh_starts.clone());
+            AccelTree::NativeGathered(backend.with_leaves(gathered))
+        }
+        _ => {
+            let packs = meshes.packs(backend.tri_bvh.primitive_indices());
+            AccelTree::Native(backend.with_leaves(packs))
         }
     }
 }
