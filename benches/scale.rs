@@ -367,21 +367,12 @@ fn main() -> ExitCode {
     }
 }
 
-/// Reads `path` through once, a megabyte at a time, so that it is in the
-/// file cache; then loads it as a mesh on `threads` threads (`luz`'s reader
+/// Reads `path` through once, so that it is in the file cache; then loads it as a mesh on `threads` threads (`luz`'s reader
 /// alone: no placing, no tree). Returns the load's seconds and the file's
 /// bytes.
 fn ply_read(path: &Path, threads: usize) -> Result<(f64, f64), String> {
-    use std::io::Read;
     let mut file = std::fs::File::open(path).map_err(|e| e.to_string())?;
-    let mut buffer = vec![0u8; 1 << 20];
-    let mut bytes = 0;
-    loop {
-        match file.read(&mut buffer).map_err(|e| e.to_string())? {
-            0 => break,
-            n => bytes += n,
-        }
-    }
+    let bytes = std::io::copy(&mut file, &mut std::io::sink()).map_err(|e| e.to_string())?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
