@@ -7,7 +7,7 @@
 //! that into a fixed pair of dimensions, so the camera and the first
 //! vertices, whose decisions matter most, get the stratified ones.
 
-use super::sobol::{self, Scramble, Seeds};
+use super::sobol::{self, SPREAD};
 use super::{splitmix64, Rng};
 use crate::math::Vec2;
 
@@ -108,7 +108,7 @@ impl Sampler {
     pub fn get_1d(&mut self, vertex: u32, dim: Dimension) -> f32 {
         match self {
             Self::Independent(rng) => rng.next_f32(),
-            Self::Sobol(s) => s.get_1d(slot(vertex, dim)),
+            Self::Sobol(s) => s.get_1d(vertex, dim),
         }
     }
 
@@ -128,7 +128,7 @@ impl Sampler {
     pub fn get_2d(&mut self, vertex: u32, dim: Dimension) -> Vec2 {
         match self {
             Self::Independent(rng) => rng.next_2d(),
-            Self::Sobol(s) => s.get_2d(slot(vertex, dim)),
+            Self::Sobol(s) => s.get_2d(vertex, dim),
         }
     }
 }
@@ -140,8 +140,8 @@ fn slot(vertex: u32, dim: Dimension) -> u64 {
     1 + vertex as u64 * PER_VERTEX as u64 + dim as u64
 }
 
-/// Slots below this draw Sobol' points.
-const SOBOL_SLOTS: u64 = 1 + SOBOL_VERTICES as u64 * PER_VERTEX as u64;
+// The covered vertices' slots are the Sobol' pairs, one each.
+const _: () = assert!(1 + SOBOL_VERTICES as usize * PER_VERTEX as usize == sobol::PAIRS);
 
 #[inline]
 fn pixel_key(seed: u64, x: u32, y: u32) -> u64 {
@@ -154,38 +154,12 @@ fn pixel_key(seed: u64, x: u32, y: u32) -> u64 {
     splitmix64(pixel ^ seed.wrapping_mul(SPREAD))
 }
 
-/// Odd constant of `seeds`'s multiply (Pelle Evensen's rrmxmx).
-const MIX: u64 = 0x9fb2_1c65_1e98_df25;
-
-/// Odd constant that spreads slot ids (or sample indices) over 64 bits
-/// before mixing.
-const SPREAD: u64 = 0x9e37_79b9_7f4a_7c15;
-
 impl SobolSample {
     /// The hash of this pixel's dimensions `slot`: the same for every
     /// sample, so all samples of the pixel are points of one sequence.
     #[inline]
     fn slot_hash(&self, slot: u64) -> u64 {
         splitmix64(self.pixel ^ (slot + 1).wrapping_mul(SPREAD))
-    }
-
-    /// The seeds of this pixel's Sobol' dimensions `slot`, as `slot_hash`
-    /// but cheaper: the pixel's key is already a full hash, so one multiply
-    /// and one fold are enough to tell its slots apart (the shuffles of two
-    /// slots must not be related, or their points would be correlated).
-    /// What a decision does not use (the camera's shuffle, a 1D decision's
-    /// `y`) the compiler leaves out.
-    #[inline(always)]
-    fn seeds(&self, slot: u64) -> Seeds {
-        let h = (self.pixel ^ (slot + 1).wrapping_mul(SPREAD)).wrapping_mul(MIX);
-        let h = h ^ (h >> 32);
-        Seeds {
-            shuffle: Scramble::new(h as u32),
-            x: Scramble::new((h >> 32) as u32),
-            // One multiply by an odd constant mixes every bit of `h` into
-            // the high half: a third seed for the price of one.
-            y: Scramble::new((h.wrapping_mul(SPREAD) >> 32) as u32),
-        }
     }
 
     /// Independent numbers of this sample for `slot`, past the covered
@@ -211,29 +185,38 @@ impl SobolSample {
         Vec2::new(sobol::to_unit(h as u32), sobol::to_unit((h >> 32) as u32))
     }
 
+    /// The seeds of a decision at a covered vertex. The callers check the
+    /// vertex rather than the slot: that bounds the slot's table index too,
+    /// and the index folds into the lookup's address.
     #[inline(always)]
-    fn get_1d(&self, slot: u64) -> f32 {
-        if slot >= SOBOL_SLOTS {
-            return self.hashed_1d(slot);
+    fn seeds(&self, vertex: u32, dim: Dimension) -> sobol::Seeds {
+        debug_assert!(vertex < SOBOL_VERTICES);
+        sobol::seeds(self.pixel, slot(vertex, dim) as usize)
+    }
+
+    #[inline(always)]
+    fn get_1d(&self, vertex: u32, dim: Dimension) -> f32 {
+        if vertex >= SOBOL_VERTICES {
+            return self.hashed_1d(slot(vertex, dim));
         }
-        sobol::point_1d(self.shuffle_input, &self.seeds(slot))
+        sobol::point_1d(self.shuffle_input, &self.seeds(vertex, dim))
     }
 
     /// The camera's pair, slot 0, in sample order: it needs no shuffle
     /// (`sobol::point_2d_in_order`).
     #[inline(always)]
     fn camera(&self) -> Vec2 {
-        let seeds = self.seeds(0);
+        let seeds = sobol::seeds(self.pixel, 0);
         let (x, y) = sobol::point_2d_in_order(self.shuffle_input, seeds.x, seeds.y);
         Vec2::new(x, y)
     }
 
     #[inline(always)]
-    fn get_2d(&self, slot: u64) -> Vec2 {
-        if slot >= SOBOL_SLOTS {
-            return self.hashed_2d(slot);
+    fn get_2d(&self, vertex: u32, dim: Dimension) -> Vec2 {
+        if vertex >= SOBOL_VERTICES {
+            return self.hashed_2d(slot(vertex, dim));
         }
-        let (x, y) = sobol::point_2d(self.shuffle_input, &self.seeds(slot));
+        let (x, y) = sobol::point_2d(self.shuffle_input, &self.seeds(vertex, dim));
         Vec2::new(x, y)
     }
 }

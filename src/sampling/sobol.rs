@@ -64,20 +64,27 @@ fn laine_karras_seeded(mut v: u32, s: Scramble) -> u32 {
     v
 }
 
-/// One Laine–Karras hash's seed, with the odd multiplier pbrt-v4 derives
-/// from it.
+/// One Laine–Karras hash's seed, with its odd multiplier.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Scramble {
     seed: u32,
     odd: u32,
 }
 
+/// The odd multiplier pbrt-v4 derives from a seed: its high bits, so that
+/// it does not depend on the bits the seed adds at the bottom.
+#[inline(always)]
+const fn odd_of(seed: u32) -> u32 {
+    (seed >> 16) | 1
+}
+
 impl Scramble {
-    #[inline]
-    pub const fn new(seed: u32) -> Self {
+    /// pbrt-v4's: the multiplier derived from the seed itself.
+    #[cfg(test)]
+    const fn new(seed: u32) -> Self {
         Self {
             seed,
-            odd: (seed >> 16) | 1,
+            odd: odd_of(seed),
         }
     }
 }
@@ -143,17 +150,28 @@ const DIMENSION_1: [u32; 32] = generator_columns(1, 0, &[1]);
 /// Both dimensions' matrices times the shuffled index `i`, read from the
 /// bits of `reverse_bits(i)` (what the shuffle's hash puts out) eight at a
 /// time, with the results bit-reversed (what the scrambles' hash takes in):
-/// entry `[k][b]` is what byte `k` of the reversed index contributes,
+/// entry `[k][b]` is what byte `k + 1` of the reversed index contributes,
 /// dimension 0 in the low 32 bits, dimension 1 in the high 32, each through
 /// `linear_premix`, the scrambles' first step. Dimension 0's reversed value
 /// is `i` itself, so this table is also the reversal between the two
-/// hashes, and both dimensions cost the same four lookups.
-const MATRIX_BYTES: [[u64; 256]; 4] = matrix_bytes(&DIMENSION_1);
+/// hashes, and both dimensions cost the same three lookups.
+///
+/// Byte 0 of the reversed index, bits 24–31 of `i`, is left out. Those bits
+/// reach dimension 0 only below the 24 bits its float keeps (each hash
+/// flips a bit by the bits below it in the reversed domain). In dimension
+/// 1 they flip digits throughout, but the shuffle maps the sample indices
+/// below 2^24 into one aligned block of 2^24, where they are the same for
+/// every sample: leaving them out is one digital shift (an XOR common to
+/// all of the pixel's points) before the scramble, which keeps the net and
+/// is as random. Past 2^24 samples a pixel's points repeat, as its floats
+/// in dimension 0 already do.
+const MATRIX_BYTES: [[u64; 256]; 3] = matrix_bytes(&DIMENSION_1);
 
-const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
-    let mut t = [[0u64; 256]; 4];
-    let mut byte = 0;
-    while byte < 4 {
+const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 3] {
+    let mut t = [[0u64; 256]; 3];
+    let mut k = 0;
+    while k < 3 {
+        let byte = k + 1;
         let mut b = 0;
         while b < 256 {
             let mut v = 0u64;
@@ -168,22 +186,22 @@ const fn matrix_bytes(dimension_1: &[u32; 32]) -> [[u64; 256]; 4] {
                 }
                 bit += 1;
             }
-            t[byte][b] = v;
+            t[k][b] = v;
             b += 1;
         }
-        byte += 1;
+        k += 1;
     }
     t
 }
 
 /// Dimensions 0 (low 32 bits) and 1 (high 32 bits) of the shuffled index
-/// whose bits, reversed, are `reversed_index`, each bit-reversed and
-/// through `linear_premix`.
+/// whose bits, reversed, are `reversed_index`, its bits 24–31 left out
+/// (`MATRIX_BYTES`), each bit-reversed and through `linear_premix`.
 #[inline]
 fn both_reversed(reversed_index: u32) -> u64 {
-    let [b0, b1, b2, b3] = reversed_index.to_le_bytes();
+    let [_, b1, b2, b3] = reversed_index.to_le_bytes();
     let t = &TABLES.matrix;
-    t[0][b0 as usize] ^ t[1][b1 as usize] ^ t[2][b2 as usize] ^ t[3][b3 as usize]
+    t[0][b1 as usize] ^ t[1][b2 as usize] ^ t[2][b3 as usize]
 }
 
 /// `UNIT_BYTES[k][b]` is byte `k` of a bit-reversed 32-bit fraction, put
@@ -212,13 +230,15 @@ const fn unit_bytes() -> [[f32; 256]; 3] {
 /// static through its address in the global offset table, one load per
 /// static, so a point that reads both tables pays that load once.
 struct Tables {
-    matrix: [[u64; 256]; 4],
+    matrix: [[u64; 256]; 3],
     unit: [[f32; 256]; 3],
+    pair_keys: [u64; PAIRS],
 }
 
 static TABLES: Tables = Tables {
     matrix: MATRIX_BYTES,
     unit: UNIT_BYTES,
+    pair_keys: pair_keys(),
 };
 
 /// `to_unit(reversed.reverse_bits())`.
@@ -236,6 +256,58 @@ pub struct Seeds {
     pub shuffle: Scramble,
     pub x: Scramble,
     pub y: Scramble,
+}
+
+/// Pairs of dimensions that draw Sobol' points ([`seeds`]): the sampler's
+/// camera pair and four decisions at each of its first 16 path vertices.
+pub const PAIRS: usize = 65;
+
+/// Odd constant that spreads ids (pairs, sample indices, seeds) over 64
+/// bits before they are mixed.
+pub const SPREAD: u64 = 0x9e37_79b9_7f4a_7c15;
+
+/// Odd constant of the seeds' multiply (Pelle Evensen's rrmxmx).
+const MIX: u64 = 0x9fb2_1c65_1e98_df25;
+
+/// `(pair + 1) · SPREAD`: each pair's key, looked up rather than
+/// multiplied out per decision.
+const fn pair_keys() -> [u64; PAIRS] {
+    let mut keys = [0; PAIRS];
+    let mut pair = 0;
+    while pair < PAIRS {
+        keys[pair] = (pair as u64 + 1).wrapping_mul(SPREAD);
+        pair += 1;
+    }
+    keys
+}
+
+/// The seeds of pair `pair` (below [`PAIRS`]) of the pixel whose key is
+/// `pixel`, a full 64-bit hash: the same for every sample, so that all
+/// samples of the pixel are points of one sequence. One multiply and one
+/// fold tell the pairs apart (the shuffles of two pairs must not be
+/// related, or their points would be correlated); a second multiply by an
+/// odd constant mixes every bit into the high half, a third seed. The
+/// three hashes share `x`'s multiplier, derived as pbrt-v4 derives it:
+/// each hash's multiplier still varies from pair to pair and pixel to
+/// pixel, and is not its own seed's low bits. What a decision does not use
+/// (the camera's shuffle, a 1D decision's `y`) the compiler leaves out.
+#[inline(always)]
+pub fn seeds(pixel: u64, pair: usize) -> Seeds {
+    let product = (pixel ^ TABLES.pair_keys[pair]) as u128 * MIX as u128;
+    let (high, low) = ((product >> 64) as u64, product as u64);
+    let x = (high >> 32) as u32;
+    let odd = odd_of(x);
+    Seeds {
+        shuffle: Scramble {
+            seed: high as u32,
+            odd,
+        },
+        x: Scramble { seed: x, odd },
+        y: Scramble {
+            seed: (low >> 32) as u32,
+            odd,
+        },
+    }
 }
 
 /// The point of sample `index` in the shuffled, scrambled (0,2)-sequence,
@@ -326,10 +398,11 @@ mod tests {
     }
 
     /// pbrt-v4's `FastOwenScrambler` in one piece, as `premix`,
-    /// `Scramble::new` and `laine_karras_seeded` split it; `carries: false`
-    /// takes the first multiply without carries, as the points' scrambles
-    /// do.
-    fn whole_laine_karras(mut v: u32, seed: u32, carries: bool) -> u32 {
+    /// `Scramble::new` and `laine_karras_seeded` split it, but with the
+    /// multiplier `odd` given (pbrt-v4's is `odd_of(seed)`); `carries:
+    /// false` takes the first multiply without carries, as the points'
+    /// scrambles do.
+    fn whole_laine_karras(mut v: u32, seed: u32, odd: u32, carries: bool) -> u32 {
         v ^= if carries {
             v.wrapping_mul(0x3d20_adea)
         } else {
@@ -338,7 +411,7 @@ mod tests {
                 .fold(0, |r, k| r ^ (v << k))
         };
         v = v.wrapping_add(seed);
-        v = v.wrapping_mul((seed >> 16) | 1);
+        v = v.wrapping_mul(odd);
         v ^= v.wrapping_mul(0x0552_6c56);
         v ^= v.wrapping_mul(0x53a2_2864);
         v
@@ -349,26 +422,31 @@ mod tests {
     /// above it, so the indices below 2^m go to one aligned block of 2^m.
     /// `point_2d` never forms it: its table reads the hash's output
     /// directly.
-    fn shuffle(reversed: u32, seed: u32) -> u32 {
-        whole_laine_karras(reversed, seed, true).reverse_bits()
+    fn shuffle(reversed: u32, seed: u32, odd: u32) -> u32 {
+        whole_laine_karras(reversed, seed, odd, true).reverse_bits()
     }
 
     /// The points as they were computed before the tables: three bit
     /// reversals per pair, dimension 1 multiplied out bit by bit, each hash
-    /// in one piece; `shuffled: false` as `point_2d_in_order`.
+    /// in one piece, all with the multiplier `odd`; `shuffled: false` as
+    /// `point_2d_in_order`. Dimension 0 takes the whole shuffled index, to
+    /// check that its bits 24–31 do not reach the float; dimension 1 leaves
+    /// them out, as `MATRIX_BYTES` does.
     fn point_2d_by_reversals(
         reversed: u32,
         [shuffle_seed, x, y]: [u32; 3],
+        odd: u32,
         shuffled: bool,
     ) -> (f32, f32) {
         let i = if shuffled {
-            shuffle(reversed, shuffle_seed)
+            shuffle(reversed, shuffle_seed, odd)
         } else {
             reversed.reverse_bits()
         };
-        let x = whole_laine_karras(i, x, false).reverse_bits();
-        let y = whole_laine_karras(dimension_1(i).reverse_bits(), y, false).reverse_bits();
-        (to_unit(x), to_unit(y))
+        let x = whole_laine_karras(i, x, odd, false).reverse_bits();
+        let kept = i & 0x00ff_ffff;
+        let y = whole_laine_karras(dimension_1(kept).reverse_bits(), y, odd, false);
+        (to_unit(x), to_unit(y.reverse_bits()))
     }
 
     #[test]
@@ -376,8 +454,9 @@ mod tests {
         let t = &MATRIX_BYTES;
         for index in [0u32, 1, 2, 3, 255, 256, 0x1234_5678, u32::MAX] {
             let v = both_reversed(index.reverse_bits());
-            assert_eq!(v as u32, linear_premix(index), "{index:#x}");
-            let y = linear_premix(dimension_1(index).reverse_bits());
+            let kept = index & 0x00ff_ffff;
+            assert_eq!(v as u32, linear_premix(kept), "{index:#x}");
+            let y = linear_premix(dimension_1(kept).reverse_bits());
             assert_eq!((v >> 32) as u32, y);
             for x in [index, index.wrapping_mul(0x9e37_79b9)] {
                 assert_eq!(unit_of_reversed(x), to_unit(x.reverse_bits()), "{x:#x}");
@@ -385,23 +464,25 @@ mod tests {
         }
         // Index bit 0: both dimensions' reversed value 1, premixed.
         let one = linear_premix(1) as u64;
-        assert_eq!(t[3][0x80], one | one << 32, "index bit 0");
+        assert_eq!(t[2][0x80], one | one << 32, "index bit 0");
         let mut h = 1u64;
         for k in 0..10_000u32 {
             h = h
                 .wrapping_mul(0x5851_f42d_4c95_7f2d)
                 .wrapping_add(1442695040888963407);
             let raw = [(h >> 32) as u32, h as u32, (h >> 16) as u32];
+            let odd = odd_of(h.rotate_left(7) as u32);
+            let scramble = |seed| Scramble { seed, odd };
             let seeds = Seeds {
-                shuffle: Scramble::new(raw[0]),
-                x: Scramble::new(raw[1]),
-                y: Scramble::new(raw[2]),
+                shuffle: scramble(raw[0]),
+                x: scramble(raw[1]),
+                y: scramble(raw[2]),
             };
             let index = k.wrapping_mul(0x2545_f491);
-            let by_reversals = point_2d_by_reversals(index.reverse_bits(), raw, true);
+            let by_reversals = point_2d_by_reversals(index.reverse_bits(), raw, odd, true);
             assert_eq!(point_2d(Index::new(index), &seeds), by_reversals);
             assert_eq!(point_1d(Index::new(index), &seeds), by_reversals.0);
-            let in_order = point_2d_by_reversals(index.reverse_bits(), raw, false);
+            let in_order = point_2d_by_reversals(index.reverse_bits(), raw, odd, false);
             let (x, y) = (seeds.x, seeds.y);
             assert_eq!(point_2d_in_order(Index::new(index), x, y), in_order);
         }
@@ -420,7 +501,7 @@ mod tests {
                     (&scramble, false),
                 ] {
                     let out = hash(v, s);
-                    assert_eq!(out, whole_laine_karras(v, seed, carries));
+                    assert_eq!(out, whole_laine_karras(v, seed, odd_of(seed), carries));
                     for j in 0..32 {
                         let changed = hash(v ^ (1 << j), s);
                         let below = (1u64 << j) as u32 - 1;
@@ -437,8 +518,9 @@ mod tests {
         for seed in [3u32, 0x9e37_79b9] {
             for m in 0..10 {
                 let n = 1u32 << m;
-                let mut shuffled: Vec<u32> =
-                    (0..n).map(|i| shuffle(i.reverse_bits(), seed)).collect();
+                let mut shuffled: Vec<u32> = (0..n)
+                    .map(|i| shuffle(i.reverse_bits(), seed, odd_of(seed)))
+                    .collect();
                 shuffled.sort_unstable();
                 let start = shuffled[0];
                 assert_eq!(start % n, 0, "aligned");
