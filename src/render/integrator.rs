@@ -66,6 +66,9 @@ pub struct Integrator<'a, B: Backend + ?Sized> {
     /// than an emitter: 0 without an environment, 1 with no emitter to
     /// sample, else ½.
     env_share: f32,
+    /// Whether a vertex samples an emitter or the environment (next-event
+    /// estimation beyond point lights).
+    samples_lights: bool,
 }
 
 impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
@@ -80,6 +83,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
             backend,
             settings,
             env_share,
+            samples_lights: env_share > 0.0 || !scene.lights.is_empty(),
         }
     }
 
@@ -95,6 +99,11 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
         counts.camera += 1;
         let mut depth = 1;
         while depth <= self.settings.max_depth {
+            if depth < self.settings.max_depth {
+                // This vertex's Sobol' points, computed while its ray is
+                // traced rather than when they are asked for.
+                sampler.draw_ahead(depth - 1, self.samples_lights);
+            }
             let Some(hit) = self.backend.intersect(&ray) else {
                 if let Some(env) = &scene.environment {
                     let weight = match prev {
@@ -340,7 +349,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 sum += f_cos * light.intensity * (falloff / d2);
             }
         }
-        if self.env_share > 0.0 || !scene.lights.is_empty() {
+        if self.samples_lights {
             let vertex = depth - 1;
             let both = self.env_share > 0.0 && self.env_share < 1.0;
             let mut u_pick = if scene.lights.picks() || both {

@@ -72,6 +72,9 @@ pub enum Sampler {
     Sobol(SobolSample),
 }
 
+/// No vertex: in u64, so that every u32 vertex differs from it.
+const NONE_AHEAD: u64 = u64::MAX;
+
 /// Sample `index` of the pixel whose hash is `pixel`.
 #[derive(Clone, Debug)]
 pub struct SobolSample {
@@ -79,6 +82,10 @@ pub struct SobolSample {
     index: u32,
     /// `index` as every dimension's shuffle takes it, computed once.
     shuffle_input: sobol::Index,
+    /// The light point and the direction `draw_ahead` computed, each with
+    /// its vertex (`NONE_AHEAD`: none).
+    light_ahead: (u64, Vec2),
+    direction_ahead: (u64, Vec2),
 }
 
 impl Sampler {
@@ -89,6 +96,8 @@ impl Sampler {
                 pixel: pixel_key(seed, x, y),
                 index: sample,
                 shuffle_input: sobol::Index::new(sample),
+                light_ahead: (NONE_AHEAD, Vec2::ZERO),
+                direction_ahead: (NONE_AHEAD, Vec2::ZERO),
             }),
         }
     }
@@ -124,11 +133,35 @@ impl Sampler {
     }
 
     /// A point in [0, 1)² for a 2D decision at path vertex `vertex`.
-    #[inline]
+    #[inline(always)]
     pub fn get_2d(&mut self, vertex: u32, dim: Dimension) -> Vec2 {
         match self {
             Self::Independent(rng) => rng.next_2d(),
-            Self::Sobol(s) => s.get_2d(vertex, dim),
+            Self::Sobol(s) => {
+                let ahead = match dim {
+                    Dimension::LightPoint => s.light_ahead,
+                    _ => s.direction_ahead,
+                };
+                if ahead.0 == vertex as u64 {
+                    ahead.1
+                } else {
+                    s.point_2d_late(vertex, dim)
+                }
+            }
+        }
+    }
+
+    /// Computes vertex `vertex`'s direction, and its light point if
+    /// `light`, before the integrator asks for them, so that their chains
+    /// of multiplies run while the ray to the vertex is traced: a Sobol'
+    /// point does not depend on the path. The independent stream is read
+    /// in order and draws nothing here.
+    #[inline]
+    pub fn draw_ahead(&mut self, vertex: u32, light: bool) {
+        if let Self::Sobol(s) = self {
+            if vertex < SOBOL_VERTICES {
+                s.draw_ahead(vertex, light);
+            }
         }
     }
 }
@@ -185,6 +218,24 @@ impl SobolSample {
         Vec2::new(sobol::to_unit(h as u32), sobol::to_unit((h >> 32) as u32))
     }
 
+    /// Out of line: inlined, it made the integrator's loop compile worse
+    /// for both samplers.
+    #[inline(never)]
+    fn draw_ahead(&mut self, vertex: u32, light: bool) {
+        if light {
+            self.light_ahead = (vertex as u64, self.point_2d(vertex, Dimension::LightPoint));
+        }
+        self.direction_ahead = (vertex as u64, self.point_2d(vertex, Dimension::Direction));
+    }
+
+    /// A point not drawn ahead (rare: past the covered vertices, or a
+    /// light point where `draw_ahead` was told no light is sampled).
+    #[cold]
+    #[inline(never)]
+    fn point_2d_late(&self, vertex: u32, dim: Dimension) -> Vec2 {
+        self.point_2d(vertex, dim)
+    }
+
     /// The seeds of a decision at a covered vertex. The callers check the
     /// vertex rather than the slot: that bounds the slot's table index too,
     /// and the index folds into the lookup's address.
@@ -212,7 +263,7 @@ impl SobolSample {
     }
 
     #[inline(always)]
-    fn get_2d(&self, vertex: u32, dim: Dimension) -> Vec2 {
+    fn point_2d(&self, vertex: u32, dim: Dimension) -> Vec2 {
         if vertex >= SOBOL_VERTICES {
             return self.hashed_2d(slot(vertex, dim));
         }
@@ -349,6 +400,32 @@ mod tests {
             let (a, b) = (points(1, 0, 0, 256, f), points(2, 0, 0, 256, f));
             assert!(a.iter().all(|p| !b.contains(p)));
         }
+    }
+
+    #[test]
+    fn drawing_ahead_changes_no_number() {
+        let fresh = |vertex, dim| Sampler::for_sample(SOBOL, 9, 4, 2, 6).get_2d(vertex, dim);
+        let mut s = Sampler::for_sample(SOBOL, 9, 4, 2, 6);
+        let last = SOBOL_VERTICES - 1;
+        for (vertex, light) in [
+            (0, true),
+            (1, false),
+            (last, true),
+            (40, true),
+            (u32::MAX, true),
+        ] {
+            s.draw_ahead(vertex, light);
+            for v in [vertex, vertex.wrapping_add(1)] {
+                for dim in [Dimension::LightPoint, Dimension::Direction] {
+                    assert_eq!(s.get_2d(v, dim), fresh(v, dim), "vertex {v}, {dim:?}");
+                }
+            }
+        }
+        // The independent stream draws nothing ahead: its order is kept.
+        let mut rng = Rng::for_sample(3, 1, 2, 5);
+        let mut s = Sampler::for_sample(SamplerKind::Independent, 3, 1, 2, 5);
+        s.draw_ahead(0, true);
+        assert_eq!(s.get_2d(0, Dimension::Direction), rng.next_2d());
     }
 
     #[test]
