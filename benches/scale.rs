@@ -367,9 +367,9 @@ fn main() -> ExitCode {
     }
 }
 
-/// Reads `path` through once, so that it is in the file cache; then loads it as a mesh on `threads` threads (`luz`'s reader
-/// alone: no placing, no tree). Returns the load's seconds and the file's
-/// bytes.
+/// Reads `path` through once, so that it is in the file cache; then loads
+/// it as a mesh on `threads` threads (`luz`'s reader alone: no placing, no
+/// tree). Returns the load's seconds and the file's bytes.
 fn ply_read(path: &Path, threads: usize) -> Result<(f64, f64), String> {
     let mut file = std::fs::File::open(path).map_err(|e| e.to_string())?;
     let bytes = std::io::copy(&mut file, &mut std::io::sink()).map_err(|e| e.to_string())?;

@@ -140,7 +140,8 @@ impl Sampler {
             Self::Sobol(s) => {
                 let ahead = match dim {
                     Dimension::LightPoint => s.light_ahead,
-                    _ => s.direction_ahead,
+                    Dimension::Direction => s.direction_ahead,
+                    Dimension::Lobe | Dimension::LightPick => (NONE_AHEAD, Vec2::ZERO),
                 };
                 if ahead.0 == vertex as u64 {
                     ahead.1
@@ -159,9 +160,7 @@ impl Sampler {
     #[inline]
     pub fn draw_ahead(&mut self, vertex: u32, light: bool) {
         if let Self::Sobol(s) = self {
-            if vertex < SOBOL_VERTICES {
-                s.draw_ahead(vertex, light);
-            }
+            s.draw_ahead(vertex, light);
         }
     }
 }
@@ -219,9 +218,13 @@ impl SobolSample {
     }
 
     /// Out of line: inlined, it made the integrator's loop compile worse
-    /// for both samplers.
+    /// for both samplers. Past the covered vertices nothing is drawn: the
+    /// hashed numbers are rare and out of line.
     #[inline(never)]
     fn draw_ahead(&mut self, vertex: u32, light: bool) {
+        if vertex >= SOBOL_VERTICES {
+            return;
+        }
         if light {
             self.light_ahead = (vertex as u64, self.point_2d(vertex, Dimension::LightPoint));
         }

@@ -93,10 +93,11 @@ pub(crate) fn is_degenerate(p @ [a, b, c]: [Vec3; 3]) -> bool {
 /// test where that is sure ([`surely_not_degenerate`], most triangles),
 /// else from squared f64 lengths (no square roots, no branches):
 /// `SURE_NO`, `SURE_YES`, or `UNSURE` within a relative 1e-6 of the
-/// threshold, where only [`is_degenerate`] itself decides. Every finite f32 triangle's squared f64
-/// lengths and products stay inside f64's normal range (≤ 1e156, ≥ 1e-180),
-/// and the rounding of either form is a few ulps (1e-15 relative), far
-/// inside the margin, so a sure answer is [`is_degenerate`]'s.
+/// threshold, where only [`is_degenerate`] itself decides. Every finite f32
+/// triangle's squared f64 lengths and products stay inside f64's normal
+/// range (≤ 1e156, ≥ 1e-180), and the rounding of either form is a few
+/// ulps (1e-15 relative), far inside the margin, so a sure answer is
+/// [`is_degenerate`]'s.
 #[inline(always)]
 fn classify(p @ [a, b, c]: [Vec3; 3]) -> u8 {
     if surely_not_degenerate(p) {
