@@ -3,7 +3,7 @@
 
 use super::fail::{column, fail_at, show, Fail};
 use super::groups::GroupsBuilder;
-use std::str::SplitAsciiWhitespace;
+use std::str::SplitWhitespace;
 
 /// The most distinct unused keywords counted: a file of random keywords
 /// must not grow the list without end.
@@ -30,7 +30,8 @@ pub(super) fn scan_obj(text: &str, numbers: bool, seen: &mut Seen) -> Option<Fai
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
     for (no, line) in text.lines().enumerate() {
         let no = no + 1;
-        let mut words = line.split_ascii_whitespace();
+        // `tobj` splits at Unicode white space, the vertical tab included.
+        let mut words = line.split_whitespace();
         let kw = words.clone().next();
         // What follows the keyword: names may hold spaces.
         let rest = || kw.map_or("", |kw| line[column(line, kw) - 1 + kw.len()..].trim());
@@ -105,7 +106,7 @@ fn count_unused(unused: &mut Vec<(String, usize)>, kw: &str) {
 fn check_floats(
     line: &str,
     no: usize,
-    words: SplitAsciiWhitespace,
+    words: SplitWhitespace,
     what: &str,
     need: usize,
 ) -> Option<Fail> {
@@ -140,7 +141,7 @@ fn check_floats(
 fn check_face(
     line: &str,
     no: usize,
-    words: SplitAsciiWhitespace,
+    words: SplitWhitespace,
     [nv, nvt, nvn]: [i64; 3],
 ) -> Option<Fail> {
     if words.clone().count() < 3 {
@@ -185,7 +186,7 @@ fn check_face(
 
 #[cfg(test)]
 mod tests {
-    use crate::scene::mesh_io::test_support::err;
+    use crate::scene::mesh_io::test_support::{err, load_str};
 
     #[test]
     fn obj_errors_name_the_line() {
@@ -204,5 +205,22 @@ mod tests {
             e.starts_with(":2:7: vertex coordinate 2: must be finite"),
             "{e}"
         );
+    }
+
+    /// A vertical tab separates words for `tobj`, though it is not ASCII
+    /// white space: the scan must see the statements `tobj` reads.
+    #[test]
+    fn vertical_tab_separates_words_as_in_tobj() {
+        let e = err("o.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\n\x0bf 1 2 4\n");
+        assert!(
+            e.starts_with(":4:8: face: vertex index `4` is out of range"),
+            "{e}"
+        );
+        // Found by `fuzz_props::obj_mutated`: a quad and a face after a
+        // vertical tab make three triangles, as the scan counts them.
+        let text = "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+            f 1/1 2/2 3/3 4/4\n\u{b}f -1 -2 -3\n";
+        let mesh = load_str("t.obj", text).unwrap();
+        assert_eq!(mesh.indices.len(), 3);
     }
 }
