@@ -5,12 +5,26 @@
 const MAX_ECHOED_CHARS: usize = 60;
 
 /// `s` in backquotes, cut after [`MAX_ECHOED_CHARS`] characters with its
-/// full length stated, so the message stays one readable line.
+/// full length stated, its control characters escaped (a line break as
+/// `\n`), so the message stays one readable line.
 pub fn echo(s: &str) -> String {
-    match s.char_indices().nth(MAX_ECHOED_CHARS) {
-        None => format!("`{s}`"),
-        Some((cut, _)) => format!("`{}…` ({} bytes)", &s[..cut], s.len()),
+    let (shown, cut) = match s.char_indices().nth(MAX_ECHOED_CHARS) {
+        None => (s, false),
+        Some((cut, _)) => (&s[..cut], true),
+    };
+    let mut out = String::from("`");
+    for c in shown.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
     }
+    match cut {
+        false => out.push('`'),
+        true => out.push_str(&format!("…` ({} bytes)", s.len())),
+    }
+    out
 }
 
 #[cfg(test)]
@@ -21,6 +35,16 @@ mod tests {
     fn short_values_are_echoed_whole() {
         assert_eq!(echo("abc"), "`abc`");
         assert_eq!(echo(""), "``");
+    }
+
+    /// Found by `fuzz_props::scene_mutated`: a TOML string `"po\nt"` made
+    /// a two-line message.
+    #[test]
+    fn control_characters_are_escaped() {
+        assert_eq!(echo("po\nt"), "`po\\nt`");
+        assert_eq!(echo("a\tb\u{1b}\r"), "`a\\tb\\u{1b}\\r`");
+        assert_eq!(echo("é ok"), "`é ok`");
+        assert_eq!(echo(&"\n".repeat(100)).lines().count(), 1);
     }
 
     #[test]
