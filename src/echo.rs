@@ -8,21 +8,21 @@ const MAX_ECHOED_CHARS: usize = 60;
 /// full length stated, its control characters escaped (a line break as
 /// `\n`), so the message stays one readable line.
 pub fn echo(s: &str) -> String {
-    let (shown, cut) = match s.char_indices().nth(MAX_ECHOED_CHARS) {
-        None => (s, false),
-        Some((cut, _)) => (&s[..cut], true),
-    };
-    let mut out = String::from("`");
-    for c in shown.chars() {
+    match s.char_indices().nth(MAX_ECHOED_CHARS) {
+        None => format!("`{}`", escape_controls(s)),
+        Some((cut, _)) => format!("`{}…` ({} bytes)", escape_controls(&s[..cut]), s.len()),
+    }
+}
+
+/// `s` with its control characters written as Rust escapes.
+fn escape_controls(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
         if c.is_control() {
             out.extend(c.escape_default());
         } else {
             out.push(c);
         }
-    }
-    match cut {
-        false => out.push('`'),
-        true => out.push_str(&format!("…` ({} bytes)", s.len())),
     }
     out
 }
