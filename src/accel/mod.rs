@@ -31,6 +31,7 @@ pub trait Tree: Send + Sync {
 pub mod bvh;
 #[cfg(luz_embree)]
 pub mod embree;
+mod extent;
 pub mod native;
 mod quality;
 mod root;
@@ -38,6 +39,7 @@ mod root;
 pub use quality::{Quality, Work};
 
 use crate::scene::Scene;
+use extent::Extent;
 use native::{Gathered, NativeBackend, Packed};
 use root::RootShapes;
 use std::sync::Arc;
@@ -115,6 +117,8 @@ pub enum AccelError {
 pub struct Accel {
     root: RootShapes,
     tree: AccelTree,
+    /// Around all of `tree`'s shapes: a ray that misses it skips the tree.
+    extent: Extent,
 }
 
 /// The native backend is two variants, one per leaf layout, so that each
@@ -133,6 +137,7 @@ impl Accel {
         options: &BuildOptions,
     ) -> Result<Self, AccelError> {
         let (root, in_root) = RootShapes::of(&scene.shapes);
+        let extent = Extent::of(&scene.shapes, &in_root);
         let work = Work::of(scene);
         let native = || native::build(scene, &in_root, options.bvh_quality.native(work));
         let tree = match kind {
@@ -146,7 +151,7 @@ impl Accel {
             #[cfg(not(luz_embree))]
             BackendKind::Embree => return Err(AccelError::EmbreeMissing),
         };
-        Ok(Self { root, tree })
+        Ok(Self { root, tree, extent })
     }
 
     /// The backend built: `Rust` or `Embree`, never `Auto`.
@@ -168,6 +173,7 @@ impl Accel {
         Layered {
             root: &self.root,
             tree,
+            extent: &self.extent,
         }
     }
 }
@@ -176,6 +182,7 @@ impl Accel {
 pub struct Layered<'a, T> {
     root: &'a RootShapes,
     tree: &'a T,
+    extent: &'a Extent,
 }
 
 impl<T: Tree> Backend for Layered<'_, T> {
@@ -190,12 +197,12 @@ impl<T: Tree> Backend for Layered<'_, T> {
         }
         // The root first: its walls bound how far the tree is walked.
         let root = self.root.closest(ray);
-        if self.tree.is_empty() {
-            return root;
-        }
         let mut r = *ray;
         if let Some(h) = &root {
             r.t_max = h.t;
+        }
+        if self.tree.is_empty() || !self.extent.touches(&r) {
+            return root;
         }
         self.tree.closest(&r).or(root)
     }
@@ -205,7 +212,8 @@ impl<T: Tree> Backend for Layered<'_, T> {
     #[inline(always)]
     fn occluded(&self, ray: &Ray) -> bool {
         traceable(ray)
-            && (self.root.any_hit(ray) || (!self.tree.is_empty() && self.tree.any_hit(ray)))
+            && (self.root.any_hit(ray)
+                || (!self.tree.is_empty() && self.extent.touches(ray) && self.tree.any_hit(ray)))
     }
 }
 

@@ -47,6 +47,7 @@ mod progress;
 mod traverse;
 
 pub use traverse::TravRay;
+pub(crate) use traverse::FAR_SCALE;
 
 use crate::math::Aabb;
 use crate::memory;

@@ -22,7 +22,7 @@ pub struct TravRay {
 
 /// Widening of the far slab distance that covers the rounding of
 /// `(plane - origin) * (1 / dir)` (pbrt-v4).
-const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
+pub(crate) const FAR_SCALE: f32 = 1.0 + 2.0 * gamma(3);
 
 impl TravRay {
     /// For a traceable ray (`accel::traceable`): finite origin and
