@@ -197,11 +197,14 @@ impl<T: Tree> Backend for Layered<'_, T> {
         }
         // The root first: its walls bound how far the tree is walked.
         let root = self.root.closest(ray);
+        if self.tree.is_empty() {
+            return root;
+        }
         let mut r = *ray;
         if let Some(h) = &root {
             r.t_max = h.t;
         }
-        if self.tree.is_empty() || !self.extent.touches(&r) {
+        if !self.extent.touches(&r) {
             return root;
         }
         self.tree.closest(&r).or(root)
