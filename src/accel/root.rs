@@ -20,7 +20,7 @@
 //! either width. The other shapes are copied (they are small) and tested
 //! one by one.
 
-use crate::geometry::{Geometry, PreliminaryHit};
+use crate::geometry::{Geometry, PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray};
 use crate::scene::Shape;
 #[cfg(target_arch = "x86_64")]
@@ -110,6 +110,16 @@ impl<L: Lanes> SplatRay<L> {
     }
 }
 
+/// A root shape's test: a sphere's inline (its quick rejection, which
+/// most rays meet, then costs no call), the others' out of line.
+#[inline(always)]
+fn intersect(g: &Geometry, ray: &Ray) -> Option<PrimHit> {
+    match g {
+        Geometry::Sphere(s) => s.intersect(ray),
+        g => g.intersect(0, ray),
+    }
+}
+
 #[derive(Clone, Debug, Default)]
 pub struct RootShapes {
     quads: Vec<QuadPack>,
@@ -190,7 +200,7 @@ impl RootShapes {
         let mut r = *ray;
         for (geom, g) in &self.others {
             r.t_max = t_max;
-            if let Some(h) = g.intersect(0, &r) {
+            if let Some(h) = intersect(g, &r) {
                 t_max = h.t;
                 best = Some(PreliminaryHit {
                     t: h.t,
@@ -207,11 +217,7 @@ impl RootShapes {
     /// Whether any root shape is hit in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        self.any_quad(ray)
-            || self
-                .others
-                .iter()
-                .any(|(_, g)| g.intersect(0, ray).is_some())
+        self.any_quad(ray) || self.others.iter().any(|(_, g)| intersect(g, ray).is_some())
     }
 
     /// The closest quad hit, eight quads at a time where the CPU has AVX.
