@@ -113,10 +113,10 @@ impl<L: Lanes> SplatRay<L> {
 /// A root shape's test: a sphere's inline (its quick rejection, which
 /// most rays meet, then costs no call), the others' out of line.
 #[inline(always)]
-fn intersect(g: &Geometry, ray: &Ray) -> Option<PrimHit> {
+fn intersect(g: &Geometry, ray: &Ray, t_max: f32) -> Option<PrimHit> {
     match g {
-        Geometry::Sphere(s) => s.intersect(ray),
-        g => g.intersect(0, ray),
+        Geometry::Sphere(s) => s.intersect_below(ray, t_max),
+        g => g.intersect(0, &Ray { t_max, ..*ray }),
     }
 }
 
@@ -197,10 +197,8 @@ impl RootShapes {
     pub fn closest(&self, ray: &Ray) -> Option<PreliminaryHit> {
         let mut best = self.closest_quad(ray);
         let mut t_max = best.map_or(ray.t_max, |h| h.t);
-        let mut r = *ray;
         for (geom, g) in &self.others {
-            r.t_max = t_max;
-            if let Some(h) = intersect(g, &r) {
+            if let Some(h) = intersect(g, ray, t_max) {
                 t_max = h.t;
                 best = Some(PreliminaryHit {
                     t: h.t,
@@ -217,7 +215,11 @@ impl RootShapes {
     /// Whether any root shape is hit in `(ray.t_min, ray.t_max)`.
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
-        self.any_quad(ray) || self.others.iter().any(|(_, g)| intersect(g, ray).is_some())
+        self.any_quad(ray)
+            || self
+                .others
+                .iter()
+                .any(|(_, g)| intersect(g, ray, ray.t_max).is_some())
     }
 
     /// The closest quad hit, eight quads at a time where the CPU has AVX.

@@ -34,10 +34,18 @@ impl Sphere {
     /// by the quick test, in the caller's registers.
     #[inline(always)]
     pub fn intersect(&self, ray: &Ray) -> Option<PrimHit> {
+        self.intersect_below(ray, ray.t_max)
+    }
+
+    /// `intersect` with `t_max` in place of the ray's, so that a caller
+    /// narrowing it need not write a copy of the ray, whose wide reads
+    /// here would wait for the copy's narrow writes.
+    #[inline(always)]
+    pub fn intersect_below(&self, ray: &Ray, t_max: f32) -> Option<PrimHit> {
         if self.clearly_missed_by(ray) {
             return None;
         }
-        self.intersect_precisely(ray)
+        self.intersect_precisely(ray, t_max)
     }
 
     /// Whether the ray's line passes the sphere by a clear margin, decided
@@ -62,7 +70,7 @@ impl Sphere {
     }
 
     #[inline(never)]
-    fn intersect_precisely(&self, ray: &Ray) -> Option<PrimHit> {
+    fn intersect_precisely(&self, ray: &Ray, t_max: f32) -> Option<PrimHit> {
         let f = ray.origin - self.center;
         let a = ray.dir.length_squared();
         let b = -f.dot(ray.dir);
@@ -85,9 +93,9 @@ impl Sphere {
         if t0 > t1 {
             std::mem::swap(&mut t0, &mut t1);
         }
-        let t = if t0 > ray.t_min && t0 < ray.t_max {
+        let t = if t0 > ray.t_min && t0 < t_max {
             t0
-        } else if t1 > ray.t_min && t1 < ray.t_max {
+        } else if t1 > ray.t_min && t1 < t_max {
             t1
         } else {
             return None;
@@ -207,7 +215,7 @@ mod tests {
                     (at - from).length()
                 };
                 let ray = Ray::new(from, (at - from) / length);
-                let precise = sphere.intersect_precisely(&ray);
+                let precise = sphere.intersect_precisely(&ray, ray.t_max);
                 if sphere.clearly_missed_by(&ray) {
                     assert_eq!(precise, None, "{sphere:?} {ray:?}");
                     quick += 1;
