@@ -12,13 +12,8 @@
 //! miss here is a miss there and images do not change.
 
 use super::bvh::FAR_SCALE;
-use crate::geometry::Geometry;
 use crate::math::{Aabb, Ray};
 use crate::scene::Shape;
-use rayon::prelude::*;
-
-/// Vertices per task when a mesh's bounds are gathered in parallel.
-const CHUNK: usize = 1 << 16;
 
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Extent {
@@ -35,7 +30,9 @@ impl Extent {
             .iter()
             .zip(in_root)
             .filter(|(_, &root)| !root)
-            .fold(Aabb::EMPTY, |b, (s, _)| b.union(bounds_of(&s.geometry)));
+            .fold(Aabb::EMPTY, |b, (s, _)| {
+                b.union(s.geometry.bounds().unwrap_or(Aabb::EMPTY))
+            });
         // The empty box's infinities stay as they are (∞ − ∞ is NaN).
         let widen = |v: f32, out: f32| {
             if v.is_finite() {
@@ -79,21 +76,10 @@ impl Extent {
     }
 }
 
-fn bounds_of(g: &Geometry) -> Aabb {
-    match g {
-        Geometry::Mesh(m) => m
-            .positions
-            .par_chunks(CHUNK)
-            .map(Aabb::from_points)
-            .reduce(|| Aabb::EMPTY, Aabb::union),
-        g => g.primitive_bounds(0).unwrap_or(Aabb::EMPTY),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::Sphere;
+    use crate::geometry::{Geometry, Sphere};
     use crate::math::Vec3;
     use crate::sampling::{uniform_sphere, Rng};
 

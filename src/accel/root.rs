@@ -131,10 +131,7 @@ impl RootShapes {
     /// The root shapes of `shapes`, and per shape whether it is one of them
     /// (the backends' trees take the others).
     pub fn of(shapes: &[Shape]) -> (Self, Vec<bool>) {
-        let bounds = |g: &Geometry| match g {
-            Geometry::Mesh(m) => m.bounds(),
-            g => g.primitive_bounds(0).unwrap_or(Aabb::EMPTY),
-        };
+        let bounds = |g: &Geometry| g.bounds().unwrap_or(Aabb::EMPTY);
         let count =
             |f: &dyn Fn(&Geometry) -> bool| shapes.iter().filter(|s| f(&s.geometry)).count();
         let is_quad = |g: &Geometry| matches!(g, Geometry::Quad(_));

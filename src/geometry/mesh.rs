@@ -45,9 +45,14 @@ impl Mesh {
         ]
     }
 
-    /// Bounds of all the mesh's vertices.
+    /// Bounds of all the mesh's vertices, gathered in parallel chunks
+    /// (a large mesh has millions).
     pub fn bounds(&self) -> Aabb {
-        Aabb::from_points(&self.positions)
+        use rayon::prelude::*;
+        self.positions
+            .par_chunks(1 << 16)
+            .map(Aabb::from_points)
+            .reduce(|| Aabb::EMPTY, Aabb::union)
     }
 
     pub fn triangle_bounds(&self, prim: u32) -> Aabb {

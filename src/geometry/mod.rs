@@ -140,6 +140,14 @@ impl Geometry {
         }
     }
 
+    /// Bounds of the whole shape; `None` for the unbounded plane.
+    pub fn bounds(&self) -> Option<Aabb> {
+        match self {
+            Geometry::Mesh(m) => Some(m.bounds()),
+            g => g.primitive_bounds(0),
+        }
+    }
+
     /// Bounds of primitive `prim`; `None` for the unbounded plane.
     pub fn primitive_bounds(&self, prim: u32) -> Option<Aabb> {
         match self {
