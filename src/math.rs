@@ -4,6 +4,8 @@
 
 pub use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
 
+use crate::simd::F4;
+
 /// Linear RGB colour (Rec.709 primaries).
 pub type Rgb = Vec3;
 
@@ -145,28 +147,6 @@ pub const fn gamma(n: u32) -> f32 {
     nu / (1.0 - nu)
 }
 
-#[inline]
-pub fn next_float_up(v: f32) -> f32 {
-    if v.is_infinite() && v > 0.0 {
-        return v;
-    }
-    let v = if v == -0.0 { 0.0 } else { v };
-    let bits = v.to_bits();
-    let bits = if v >= 0.0 { bits + 1 } else { bits - 1 };
-    f32::from_bits(bits)
-}
-
-#[inline]
-pub fn next_float_down(v: f32) -> f32 {
-    if v.is_infinite() && v < 0.0 {
-        return v;
-    }
-    let v = if v == 0.0 { -0.0 } else { v };
-    let bits = v.to_bits();
-    let bits = if v > 0.0 { bits - 1 } else { bits + 1 };
-    f32::from_bits(bits)
-}
-
 /// Origin for a ray leaving a surface point `p` (with absolute error bound
 /// `p_err` per axis) in direction `w`: pushed along the geometric normal `n`
 /// just past the error box, on the side `w` points to, then rounded away
@@ -182,20 +162,9 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
         offset = -offset;
     }
     let po = p + offset;
-    let round = |po: f32, off: f32| {
-        if off > 0.0 {
-            next_float_up(po)
-        } else if off < 0.0 {
-            next_float_down(po)
-        } else {
-            po
-        }
-    };
-    Vec3::new(
-        round(po.x, offset.x),
-        round(po.y, offset.y),
-        round(po.z, offset.z),
-    )
+    let lanes = |v: Vec3| F4::load(&[v.x, v.y, v.z, 0.0]);
+    let [x, y, z, _] = lanes(po).step_towards(lanes(offset)).to_array();
+    Vec3::new(x, y, z)
 }
 
 /// Ray from a surface point towards direction `w`.
@@ -373,11 +342,84 @@ mod tests {
         assert!(refract(Vec3::new(0.9, 0.2, 0.0).normalize(), Vec3::Y, 1.0 / 1.5).is_none());
     }
 
+    /// pbrt-v4's `NextFloatUp` and `NextFloatDown`, the reference
+    /// `F4::step_towards` is checked against.
+    fn next_float_up(v: f32) -> f32 {
+        if v.is_infinite() && v > 0.0 {
+            return v;
+        }
+        let v = if v == -0.0 { 0.0 } else { v };
+        let bits = v.to_bits();
+        let bits = if v >= 0.0 { bits + 1 } else { bits - 1 };
+        f32::from_bits(bits)
+    }
+
+    fn next_float_down(v: f32) -> f32 {
+        if v.is_infinite() && v < 0.0 {
+            return v;
+        }
+        let v = if v == 0.0 { -0.0 } else { v };
+        let bits = v.to_bits();
+        let bits = if v > 0.0 { bits - 1 } else { bits + 1 };
+        f32::from_bits(bits)
+    }
+
     #[test]
     fn next_float_steps_across_zero() {
         assert!(next_float_up(0.0) > 0.0);
         assert!(next_float_down(0.0) < 0.0);
         assert!(next_float_up(-0.0) > 0.0);
         assert_eq!(next_float_up(1.0), 1.0 + f32::EPSILON);
+    }
+
+    #[test]
+    fn the_branch_free_step_is_pbrts_next_float() {
+        // Each number in every lane, as `offset_ray_origin` steps them.
+        let step = |v: f32, off: f32| {
+            let [a, b, c, d] = F4::splat(v).step_towards(F4::splat(off)).to_array();
+            assert!([b, c, d].iter().all(|x| x.to_bits() == a.to_bits()));
+            a
+        };
+        let mut values = vec![
+            0.0,
+            -0.0,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MAX,
+            -f32::MAX,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            f32::from_bits(1),
+            -f32::from_bits(1),
+            1.0,
+            -1.0,
+        ];
+        let mut bits = 0x1234_5678u32;
+        for _ in 0..100_000 {
+            bits = bits.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+            let v = f32::from_bits(bits);
+            if !v.is_nan() {
+                values.push(v);
+            }
+        }
+        for v in values {
+            for off in [1e-3, -1e-3, f32::from_bits(1), -f32::INFINITY] {
+                let want = if off > 0.0 {
+                    next_float_up(v)
+                } else {
+                    next_float_down(v)
+                };
+                assert_eq!(
+                    step(v, off).to_bits(),
+                    want.to_bits(),
+                    "{v:e} towards {off:e}"
+                );
+            }
+            for off in [0.0, -0.0, f32::NAN] {
+                assert_eq!(step(v, off).to_bits(), v.to_bits(), "{v:e} towards {off:e}");
+            }
+        }
+        assert!(step(f32::NAN, 1.0).is_nan());
+        assert!(step(-f32::NAN, -1.0).is_nan());
     }
 }

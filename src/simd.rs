@@ -97,6 +97,67 @@ mod imp {
         pub fn bits(self) -> u32 {
             unsafe { _mm_movemask_ps(self.0) as u32 }
         }
+        /// `a` in the lanes set, `b` in the others.
+        #[inline(always)]
+        pub fn select(self, a: F4, b: F4) -> F4 {
+            unsafe {
+                F4(_mm_or_ps(
+                    _mm_and_ps(self.0, a.0),
+                    _mm_andnot_ps(self.0, b.0),
+                ))
+            }
+        }
+    }
+
+    impl F4 {
+        /// Each lane moved one float in the direction of `off`'s sign:
+        /// pbrt-v4's `NextFloatUp` for `off > 0`, `NextFloatDown` for
+        /// `off < 0`, the lane itself for a zero or NaN `off`. Branch-free,
+        /// on the bits: a step away from zero adds one to them, a step
+        /// towards zero takes one away, zero first takes `off`'s sign, and
+        /// an infinity does not grow. Tested in `math`.
+        #[inline(always)]
+        pub fn step_towards(self, off: F4) -> F4 {
+            unsafe {
+                let zero_ps = _mm_setzero_ps();
+                let moves = _mm_castps_si128(_mm_or_ps(
+                    _mm_cmpgt_ps(off.0, zero_ps),
+                    _mm_cmplt_ps(off.0, zero_ps),
+                ));
+                let sign = _mm_set1_epi32(i32::MIN);
+                let bits = _mm_castps_si128(self.0);
+                let off_sign = _mm_and_si128(_mm_castps_si128(off.0), sign);
+                let magnitude = _mm_andnot_si128(sign, bits);
+                let zero = _mm_and_si128(moves, _mm_cmpeq_epi32(magnitude, _mm_setzero_si128()));
+                let bits =
+                    _mm_or_si128(_mm_and_si128(zero, off_sign), _mm_andnot_si128(zero, bits));
+                let away = _mm_cmpeq_epi32(_mm_and_si128(bits, sign), off_sign);
+                let infinite =
+                    _mm_cmpeq_epi32(magnitude, _mm_set1_epi32(f32::INFINITY.to_bits() as i32));
+                // -1 (all ones) towards zero, +1 away from it, 0 for an
+                // infinity away from zero.
+                let grow = _mm_and_si128(_mm_andnot_si128(infinite, away), _mm_set1_epi32(1));
+                let step = _mm_or_si128(_mm_andnot_si128(away, _mm_set1_epi32(-1)), grow);
+                let step = _mm_and_si128(moves, step);
+                F4(_mm_castsi128_ps(_mm_add_epi32(bits, step)))
+            }
+        }
+        /// The largest lane, for lanes without NaN.
+        #[inline(always)]
+        pub fn max_lane(self) -> f32 {
+            unsafe {
+                let pairs = _mm_max_ps(self.0, _mm_movehl_ps(self.0, self.0));
+                _mm_cvtss_f32(_mm_max_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)))
+            }
+        }
+        /// The smallest lane, for lanes without NaN.
+        #[inline(always)]
+        pub fn min_lane(self) -> f32 {
+            unsafe {
+                let pairs = _mm_min_ps(self.0, _mm_movehl_ps(self.0, self.0));
+                _mm_cvtss_f32(_mm_min_ss(pairs, _mm_shuffle_ps(pairs, pairs, 1)))
+            }
+        }
     }
 }
 
@@ -174,6 +235,55 @@ mod imp {
         #[inline(always)]
         pub fn bits(self) -> u32 {
             (0..4).fold(0, |m, k| m | ((self.0[k] as u32) << k))
+        }
+        /// `a` in the lanes set, `b` in the others.
+        #[inline(always)]
+        pub fn select(self, a: F4, b: F4) -> F4 {
+            F4(std::array::from_fn(
+                |k| if self.0[k] { a.0[k] } else { b.0[k] },
+            ))
+        }
+    }
+
+    impl F4 {
+        /// Each lane moved one float in the direction of `off`'s sign, as
+        /// the x86_64 `step_towards` (its doc).
+        #[inline(always)]
+        pub fn step_towards(self, off: F4) -> F4 {
+            F4(std::array::from_fn(|k| step_towards(self.0[k], off.0[k])))
+        }
+        /// The largest lane, for lanes without NaN.
+        #[inline(always)]
+        pub fn max_lane(self) -> f32 {
+            self.0.into_iter().fold(f32::NEG_INFINITY, f32::max)
+        }
+        /// The smallest lane, for lanes without NaN.
+        #[inline(always)]
+        pub fn min_lane(self) -> f32 {
+            self.0.into_iter().fold(f32::INFINITY, f32::min)
+        }
+    }
+
+    /// One lane of `F4::step_towards`.
+    #[inline(always)]
+    fn step_towards(v: f32, off: f32) -> f32 {
+        const SIGN: u32 = 0x8000_0000;
+        let off_sign = off.to_bits() & SIGN;
+        let bits = v.to_bits();
+        let bits = if bits & !SIGN == 0 { off_sign } else { bits };
+        let away = bits & SIGN == off_sign;
+        let step: u32 = if !away {
+            u32::MAX
+        } else if bits & !SIGN == f32::INFINITY.to_bits() {
+            0
+        } else {
+            1
+        };
+        let moves = (off > 0.0) | (off < 0.0);
+        if moves {
+            f32::from_bits(bits.wrapping_add(step))
+        } else {
+            v
         }
     }
 }

@@ -14,11 +14,14 @@
 use super::bvh::FAR_SCALE;
 use crate::math::{Aabb, Ray};
 use crate::scene::Shape;
+use crate::simd::F4;
 
+/// The box's corners in the first three lanes; the fourth lane's
+/// (−∞, +∞) leaves a ray's own interval as it is.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Extent {
-    min: [f32; 3],
-    max: [f32; 3],
+    min: [f32; 4],
+    max: [f32; 4],
 }
 
 impl Extent {
@@ -41,37 +44,33 @@ impl Extent {
                 v
             }
         };
+        let [x0, y0, z0] = bounds.min.to_array().map(|v| widen(v, -1.0));
+        let [x1, y1, z1] = bounds.max.to_array().map(|v| widen(v, 1.0));
         Self {
-            min: bounds.min.to_array().map(|v| widen(v, -1.0)),
-            max: bounds.max.to_array().map(|v| widen(v, 1.0)),
+            min: [x0, y0, z0, f32::NEG_INFINITY],
+            max: [x1, y1, z1, f32::INFINITY],
         }
     }
 
     /// Whether the ray's `(t_min, t_max)` may touch the box; the ray must
     /// be traceable (`accel::traceable`). The slab test of the trees'
-    /// nodes, one box wide: a NaN distance (a direction component of zero
-    /// with the origin on the box's plane) leaves the interval unchanged.
+    /// nodes, one box wide, its three axes in the lanes of one vector: a
+    /// NaN distance (a direction component of zero with the origin on the
+    /// box's plane) leaves the interval unchanged, as `maxps`/`minps` keep
+    /// their second operand then. The fourth lane is the interval itself.
     #[inline(always)]
     pub(super) fn touches(&self, ray: &Ray) -> bool {
-        let (origin, dir) = (ray.origin.to_array(), ray.dir.to_array());
-        let mut t0 = ray.t_min;
-        let mut t1 = ray.t_max;
-        for axis in 0..3 {
-            let inv = 1.0 / dir[axis];
-            let (near, far) = if dir[axis].is_sign_negative() {
-                (self.max[axis], self.min[axis])
-            } else {
-                (self.min[axis], self.max[axis])
-            };
-            let tn = (near - origin[axis]) * inv;
-            let tf = (far - origin[axis]) * inv;
-            if tn > t0 {
-                t0 = tn;
-            }
-            if tf < t1 {
-                t1 = tf;
-            }
-        }
+        let (o, d) = (ray.origin, ray.dir);
+        let origin = F4::load(&[o.x, o.y, o.z, 0.0]);
+        let inv = F4::splat(1.0).div(F4::load(&[d.x, d.y, d.z, 1.0]));
+        // A traceable direction is finite, so `inv` is never ±0 and has the
+        // sign of the direction, that of -0 included.
+        let negative = inv.lt(F4::splat(0.0));
+        let (min, max) = (F4::load(&self.min), F4::load(&self.max));
+        let tn = negative.select(max, min).sub(origin).mul(inv);
+        let tf = negative.select(min, max).sub(origin).mul(inv);
+        let t0 = tn.max(F4::splat(ray.t_min)).max_lane();
+        let t1 = tf.min(F4::splat(ray.t_max)).min_lane();
         t0 <= t1 * FAR_SCALE
     }
 }

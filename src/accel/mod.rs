@@ -39,6 +39,7 @@ mod root;
 pub use quality::{Quality, Work};
 
 use crate::scene::Scene;
+use crate::simd::F4;
 use extent::Extent;
 use native::{Gathered, NativeBackend, Packed};
 use root::RootShapes;
@@ -47,11 +48,14 @@ use std::sync::Arc;
 /// Whether a ray can be traced: finite origin and direction, `t_min` not
 /// NaN, `t_min < t_max`. No box or shape test can handle the others, which
 /// hit nothing. Branch-free: `x * 0` is ±0 for finite `x` and NaN
-/// otherwise, so one comparison covers all seven numbers.
+/// otherwise, so one comparison of four lanes covers all seven numbers.
 #[inline(always)]
 pub(crate) fn traceable(ray: &Ray) -> bool {
-    let zeros = ray.origin * 0.0 + ray.dir * 0.0;
-    ((zeros.element_sum() + ray.t_min * 0.0) == 0.0) & (ray.t_min < ray.t_max)
+    let (o, d) = (ray.origin, ray.dir);
+    let zero = F4::splat(0.0);
+    let origin = F4::load(&[o.x, o.y, o.z, ray.t_min]).mul(zero);
+    let dir = F4::load(&[d.x, d.y, d.z, 0.0]).mul(zero);
+    (origin.add(dir).eq(zero).bits() == 0b1111) & (ray.t_min < ray.t_max)
 }
 
 /// Which backend to build; `Auto` is Embree when compiled in.
