@@ -2,9 +2,20 @@
 //! floating-point error bounds that keep secondary rays off the surface they
 //! leave (pbrt-v4, "Managing Rounding Error").
 
-pub use glam::{Mat3, Mat4, Quat, Vec2, Vec3};
+pub use glam::{Mat3, Mat4, Quat, Vec2};
 
 use crate::simd::F4;
+
+/// Three floats held in one 16-byte SIMD register (`glam::Vec3A`): what
+/// the render loop computes with, one instruction per operation on x86_64
+/// where a 12-byte vector takes three and the shuffles to gather them.
+/// Arrays of many points (meshes) store [`PackedVec3`] instead.
+pub type Vec3 = glam::Vec3A;
+
+/// Three floats in 12 bytes (`glam::Vec3`): the storage of large arrays
+/// (mesh vertices and normals, the layout Embree shares), converted to
+/// [`Vec3`] where read.
+pub type PackedVec3 = glam::Vec3;
 
 /// Linear RGB colour (Rec.709 primaries).
 pub type Rgb = Vec3;
@@ -62,8 +73,8 @@ impl Aabb {
         Self { min, max }
     }
 
-    pub fn from_points(points: &[Vec3]) -> Self {
-        points.iter().fold(Self::EMPTY, |b, &p| b.grow(p))
+    pub fn from_points<P: Copy + Into<Vec3>>(points: &[P]) -> Self {
+        points.iter().fold(Self::EMPTY, |b, &p| b.grow(p.into()))
     }
 
     #[inline]

@@ -44,9 +44,9 @@ fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
         let mut indices = Vec::new();
         for i in 0..400u32 {
             let a = p(rng);
-            positions.push(a);
-            positions.push(a + 0.15 * scale * uniform_sphere(rng.next_2d()));
-            positions.push(a + 0.15 * scale * uniform_sphere(rng.next_2d()));
+            positions.push(a.into());
+            positions.push((a + 0.15 * scale * uniform_sphere(rng.next_2d())).into());
+            positions.push((a + 0.15 * scale * uniform_sphere(rng.next_2d())).into());
             indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
         }
         shapes.push(Geometry::Mesh(Mesh {

@@ -6,7 +6,7 @@
 
 use luz::geometry::Mesh;
 use luz::image::io::{parse_ppm, srgb_to_linear};
-use luz::math::Vec3;
+use luz::math::{PackedVec3, Vec3};
 use luz::scene::load_bytes;
 use luz::scene::mesh_io::parse_mesh;
 use proptest::prelude::*;
@@ -239,7 +239,10 @@ fn meshes() -> impl Strategy<Value = Mesh> {
             let n = ps.len() as u32;
             prop::collection::vec((0..n, 0..n, 0..n), 1..40).prop_map(move |tris| {
                 let mut m = Mesh {
-                    positions: ps.iter().map(|&(x, y, z)| Vec3::new(x, y, z)).collect(),
+                    positions: ps
+                        .iter()
+                        .map(|&(x, y, z)| PackedVec3::new(x, y, z))
+                        .collect(),
                     indices: tris.into_iter().map(|(a, b, c)| [a, b, c]).collect(),
                     uvs: None,
                     normals: None,
@@ -249,7 +252,7 @@ fn meshes() -> impl Strategy<Value = Mesh> {
                     .iter()
                     .copied()
                     .filter(|&t| {
-                        let corners = t.map(|i| m.positions[i as usize]);
+                        let corners = t.map(|i| Vec3::from(m.positions[i as usize]));
                         sin_p0(&m, t) > 1e-3 && !luz::geometry::has_zero_area(corners)
                     })
                     .collect();

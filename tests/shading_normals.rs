@@ -7,7 +7,7 @@ mod common;
 
 use common::meshes::{close, icosphere, load_scene, mesh_of, mesh_scene, obj, ply};
 use luz::geometry::Mesh;
-use luz::math::Vec3;
+use luz::math::{PackedVec3, Vec3};
 
 #[test]
 fn ply_normals_are_read_and_moved_by_the_inverse_transpose() {
@@ -38,7 +38,7 @@ fn ply_normals_are_read_and_moved_by_the_inverse_transpose() {
     let n = m.normals.as_ref().unwrap();
     assert!(close(n[0], Vec3::new(0.5, 1.0, 0.0).normalize()), "{n:?}");
     assert!(close(n[1], Vec3::Z), "{n:?}");
-    assert_eq!(m.positions[1], Vec3::new(2.0, 0.0, 0.0));
+    assert_eq!(m.positions[1], PackedVec3::new(2.0, 0.0, 0.0));
 
     // `normals = "flat"` drops them; a file without normals has none.
     let flat = load_scene(
@@ -73,8 +73,8 @@ fn obj_normals_split_vertices_and_follow_negative_indices() {
         }
     }
     // The corner at position 1 (0, 0, 0) appears with either normal.
-    let at_origin: Vec<Vec3> = (0..6)
-        .filter(|&i| m.positions[i] == Vec3::ZERO)
+    let at_origin: Vec<PackedVec3> = (0..6)
+        .filter(|&i| m.positions[i] == PackedVec3::ZERO)
         .map(|i| n[i])
         .collect();
     assert_eq!(at_origin.len(), 2, "{at_origin:?}");
@@ -184,10 +184,10 @@ fn the_shading_normal_stays_on_the_side_of_the_winding() {
     use luz::geometry::PrimHit;
     // Facing +z by its winding; the file's normals point to -z, tilted.
     let mesh = Mesh {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+        positions: vec![PackedVec3::ZERO, PackedVec3::X, PackedVec3::Y],
         indices: vec![[0, 1, 2]],
         uvs: None,
-        normals: Some(vec![Vec3::new(0.6, 0.0, -0.8); 3]),
+        normals: Some(vec![PackedVec3::new(0.6, 0.0, -0.8); 3]),
     };
     let sp = mesh.surface(
         0,

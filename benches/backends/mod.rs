@@ -21,7 +21,7 @@ use criterion::measurement::WallTime;
 use criterion::{black_box, BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Quality};
 use luz::geometry::Geometry;
-use luz::math::{spawn_ray, spawn_ray_to, Aabb, Frame, Mat4, Ray, Vec2, Vec3};
+use luz::math::{spawn_ray, spawn_ray_to, Aabb, Frame, Mat4, PackedVec3, Ray, Vec2, Vec3};
 use luz::sampling::{cosine_hemisphere, Rng};
 use luz::scene::Scene;
 use rayon::prelude::*;
@@ -114,9 +114,9 @@ fn mesh_bounds(scene: &Scene) -> Aabb {
 /// centred on it horizontally and resting on its bottom.
 fn fit(from: Aabb, to: Aabb) -> Mat4 {
     let scale = to.extent().max_element() / from.extent().max_element();
-    let anchor = |b: Aabb| Vec3::new(b.centroid().x, b.min.y, b.centroid().z);
+    let anchor = |b: Aabb| PackedVec3::new(b.centroid().x, b.min.y, b.centroid().z);
     Mat4::from_translation(anchor(to))
-        * Mat4::from_scale(Vec3::splat(scale))
+        * Mat4::from_scale(PackedVec3::splat(scale))
         * Mat4::from_translation(-anchor(from))
 }
 

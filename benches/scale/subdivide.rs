@@ -4,7 +4,7 @@
 //! is the same at every level while the triangle count grows fourfold.
 
 use luz::geometry::Mesh;
-use luz::math::Vec3;
+use luz::math::PackedVec3;
 use std::collections::HashMap;
 use std::io::Write;
 use std::path::Path;
@@ -14,7 +14,7 @@ use std::path::Path;
 pub fn subdivide(mesh: &Mesh) -> Mesh {
     let mut positions = mesh.positions.clone();
     let mut midpoints: HashMap<(u32, u32), u32> = HashMap::with_capacity(mesh.indices.len() * 2);
-    let mut midpoint = |a: u32, b: u32, positions: &mut Vec<Vec3>| {
+    let mut midpoint = |a: u32, b: u32, positions: &mut Vec<PackedVec3>| {
         let key = (a.min(b), a.max(b));
         *midpoints.entry(key).or_insert_with(|| {
             let p = 0.5 * (positions[a as usize] + positions[b as usize]);

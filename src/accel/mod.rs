@@ -278,7 +278,7 @@ pub fn embree_version() -> Option<String> {
 mod tests {
     use super::*;
     use crate::geometry::{Geometry, Mesh, Plane, Quad, Sphere};
-    use crate::math::Vec3;
+    use crate::math::{PackedVec3, Vec3};
 
     /// A plane, a quad and a sphere (root shapes) and a triangle (a tree's),
     /// all on the ray below.
@@ -293,9 +293,9 @@ mod tests {
             }),
             Geometry::Mesh(Mesh {
                 positions: vec![
-                    z(-2.0),
-                    Vec3::new(1.0, -1.0, -2.0),
-                    Vec3::new(0.0, 1.0, -2.0),
+                    z(-2.0).into(),
+                    PackedVec3::new(1.0, -1.0, -2.0),
+                    PackedVec3::new(0.0, 1.0, -2.0),
                 ],
                 indices: vec![[0, 1, 2]],
                 uvs: None,

@@ -17,17 +17,17 @@
 //! `plane_distance`).
 
 use super::{PrimHit, SurfacePoint};
-use crate::math::{gamma, Aabb, Ray, Vec2, Vec3};
+use crate::math::{gamma, Aabb, PackedVec3, Ray, Vec2, Vec3};
 use crate::sampling::{uniform_triangle, Discrete};
 
 #[derive(Clone, Debug, Default)]
 pub struct Mesh {
-    pub positions: Vec<Vec3>,
+    pub positions: Vec<PackedVec3>,
     pub indices: Vec<[u32; 3]>,
     /// Per-vertex texture coordinates, same length as `positions` when present.
     pub uvs: Option<Vec<Vec2>>,
     /// Per-vertex shading normals, same length as `positions` when present.
-    pub normals: Option<Vec<Vec3>>,
+    pub normals: Option<Vec<PackedVec3>>,
 }
 
 impl Mesh {
@@ -38,11 +38,7 @@ impl Mesh {
     #[inline]
     pub fn vertices(&self, prim: u32) -> [Vec3; 3] {
         let [a, b, c] = self.indices[prim as usize];
-        [
-            self.positions[a as usize],
-            self.positions[b as usize],
-            self.positions[c as usize],
-        ]
+        [a, b, c].map(|i| Vec3::from(self.positions[i as usize]))
     }
 
     /// Bounds of all the mesh's vertices, gathered in parallel chunks
@@ -140,7 +136,7 @@ impl Mesh {
     pub fn compute_vertex_normals(&mut self) {
         let mut sums = vec![Vec3::ZERO; self.positions.len()];
         for &tri in &self.indices {
-            let p = tri.map(|i| self.positions[i as usize]);
+            let p = tri.map(|i| Vec3::from(self.positions[i as usize]));
             let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
             if n == Vec3::ZERO {
                 continue;
@@ -151,10 +147,7 @@ impl Mesh {
                 sums[tri[k] as usize] += n * unit_angle(d0, d1);
             }
         }
-        for n in &mut sums {
-            *n = n.normalize_or_zero();
-        }
-        self.normals = Some(sums);
+        self.normals = Some(sums.iter().map(|n| n.normalize_or_zero().into()).collect());
     }
 }
 
@@ -180,9 +173,9 @@ fn unit_angle(a: Vec3, b: Vec3) -> f32 {
 /// normals; the shading only bends within that side. A file whose normals
 /// all point against its winding is therefore shaded as its winding says.
 #[inline]
-fn shading_normal(normals: &[Vec3], tri: [u32; 3], b: Vec2, n: Vec3) -> Vec3 {
+fn shading_normal(normals: &[PackedVec3], tri: [u32; 3], b: Vec2, n: Vec3) -> Vec3 {
     let corner = |i: u32| {
-        let v = normals[i as usize];
+        let v = Vec3::from(normals[i as usize]);
         if v == Vec3::ZERO {
             n
         } else {

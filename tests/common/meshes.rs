@@ -2,7 +2,7 @@
 //! and the scenes they load them in.
 
 use luz::geometry::{Geometry, Mesh};
-use luz::math::Vec3;
+use luz::math::{PackedVec3, Vec3};
 use luz::scene::{load, Scene};
 use std::path::Path;
 
@@ -73,7 +73,7 @@ pub fn ply(vertices: &[([f32; 3], [f32; 3])], faces: &[[u32; 3]]) -> String {
 }
 
 /// An OBJ of the mesh's positions and faces, with no normals.
-pub fn obj(positions: &[Vec3], faces: &[[u32; 3]]) -> String {
+pub fn obj(positions: &[PackedVec3], faces: &[[u32; 3]]) -> String {
     let mut s: String = positions
         .iter()
         .map(|q| format!("v {} {} {}\n", q.x, q.y, q.z))
@@ -97,15 +97,15 @@ pub fn quad_ply(n: [f32; 3]) -> String {
     ply(&v, &[[0, 1, 2], [0, 2, 3]])
 }
 
-pub fn close(a: Vec3, b: Vec3) -> bool {
-    (a - b).length() < 1e-5
+pub fn close(a: impl Into<Vec3>, b: impl Into<Vec3>) -> bool {
+    (a.into() - b.into()).length() < 1e-5
 }
 
 /// An icosphere of unit radius, `subdivisions` times subdivided, with its
 /// exact (radial) normals.
-pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+pub fn icosphere(subdivisions: u32) -> (Vec<PackedVec3>, Vec<[u32; 3]>) {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
-    let mut p: Vec<Vec3> = [
+    let mut p: Vec<PackedVec3> = [
         (-1.0, t, 0.0),
         (1.0, t, 0.0),
         (-1.0, -t, 0.0),
@@ -120,7 +120,7 @@ pub fn icosphere(subdivisions: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         (-t, 0.0, 1.0),
     ]
     .iter()
-    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .map(|&(x, y, z)| PackedVec3::new(x, y, z).normalize())
     .collect();
     let mut f: Vec<[u32; 3]> = vec![
         [0, 11, 5],

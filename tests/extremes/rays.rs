@@ -104,7 +104,9 @@ fn grazing_rays_down_to_1e_minus6_rad() {
         let origin = Vec3::new(0.7, -0.3, 0.2) * scale;
         let quad = Quad::new(origin, 2.0 * scale * s, 1.5 * scale * t).unwrap();
         let tri = Mesh {
-            positions: vec![origin, origin + 2.0 * scale * s, origin + 2.0 * scale * t],
+            positions: [origin, origin + 2.0 * scale * s, origin + 2.0 * scale * t]
+                .map(Into::into)
+                .to_vec(),
             indices: vec![[0, 1, 2]],
             uvs: None,
             normals: None,
@@ -212,7 +214,10 @@ fn octasphere(levels: u32, center: Vec3, radius: f32) -> Mesh {
         indices = next;
     }
     Mesh {
-        positions: positions.iter().map(|&p| center + radius * p).collect(),
+        positions: positions
+            .iter()
+            .map(|&p| (center + radius * p).into())
+            .collect(),
         indices,
         uvs: None,
         normals: None,

@@ -15,7 +15,7 @@
 use super::bins::{bins_for, Binner, Bins};
 use super::progress::{report_parallel_leaf, report_serial};
 use super::{usable, Preset, MAX_DEPTH, PARALLEL_THRESHOLD};
-use crate::math::Aabb;
+use crate::math::{Aabb, Vec3};
 use crate::memory;
 use crate::meter::Reporter;
 use glam::{BVec4A, Vec4};
@@ -90,7 +90,7 @@ impl Bounds {
     }
 
     fn aabb(&self) -> Aabb {
-        Aabb::new(self.min.truncate(), self.max.truncate())
+        Aabb::new(Vec3::from_vec4(self.min), Vec3::from_vec4(self.max))
     }
 
     #[inline]

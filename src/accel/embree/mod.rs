@@ -212,7 +212,7 @@ impl Tree for EmbreeBackend {
 mod tests {
     use super::*;
     use crate::geometry::{Mesh, Sphere};
-    use crate::math::Vec3;
+    use crate::math::{PackedVec3, Vec3};
 
     fn scene_of(shapes: Vec<Geometry>) -> Arc<Scene> {
         Arc::new(Scene::of_geometry(shapes))
@@ -229,9 +229,9 @@ mod tests {
     fn hits_report_the_scenes_own_ids() {
         for spare in [false, true] {
             let mut positions = vec![
-                Vec3::new(-1.0, -1.0, -2.0),
-                Vec3::new(1.0, -1.0, -2.0),
-                Vec3::new(0.0, 1.0, -2.0),
+                PackedVec3::new(-1.0, -1.0, -2.0),
+                PackedVec3::new(1.0, -1.0, -2.0),
+                PackedVec3::new(0.0, 1.0, -2.0),
             ];
             positions.shrink_to_fit();
             if spare {
@@ -256,7 +256,7 @@ mod tests {
 
     /// A scene of a unit sphere at z = -5 (shape 0) and the mesh
     /// `positions`, `indices` (shape 1).
-    fn sphere_behind(positions: Vec<Vec3>, indices: Vec<[u32; 3]>) -> Arc<Scene> {
+    fn sphere_behind(positions: Vec<PackedVec3>, indices: Vec<[u32; 3]>) -> Arc<Scene> {
         scene_of(vec![
             Geometry::Sphere(Sphere {
                 center: Vec3::new(0.0, 0.0, -5.0),
@@ -278,7 +278,7 @@ mod tests {
         use crate::meter::test_support::{steps, Recorder};
         let side = 300u32;
         let positions = (0..=side)
-            .flat_map(|y| (0..=side).map(move |x| Vec3::new(x as f32, y as f32, -3.0)))
+            .flat_map(|y| (0..=side).map(move |x| PackedVec3::new(x as f32, y as f32, -3.0)))
             .collect();
         let at = |x: u32, y: u32| y * (side + 1) + x;
         let indices = (0..side)
@@ -325,7 +325,7 @@ mod tests {
     #[test]
     fn out_of_range_indices_are_a_build_error_not_a_crash() {
         let scene = scene_of(vec![Geometry::Mesh(Mesh {
-            positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            positions: vec![PackedVec3::ZERO, PackedVec3::X, PackedVec3::Y],
             indices: vec![[0, 1, 7]],
             uvs: None,
             normals: None,

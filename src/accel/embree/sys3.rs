@@ -20,7 +20,7 @@ pub use user::UserPrimitives;
 use super::error::{EmbreeError, ErrorCode, Report};
 use crate::accel::EmbreeQuality;
 use crate::geometry::PreliminaryHit;
-use crate::math::{Ray, Vec3};
+use crate::math::{PackedVec3, Ray};
 use crate::meter::Reporter;
 use std::ffi::{c_char, c_uint, c_void, CStr, CString};
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -254,7 +254,7 @@ impl Device {
     /// attached to.
     pub unsafe fn new_triangles(
         &self,
-        positions: &[Vec3],
+        positions: &[PackedVec3],
         spare: bool,
         indices: &[[u32; 3]],
         quality: EmbreeQuality,

@@ -35,7 +35,7 @@ impl Ctx<'_> {
         let up = if (1e-12..1e12).contains(&up.length_squared()) {
             up
         } else {
-            u.normalize().as_vec3()
+            u.normalize().as_vec3a()
         };
         let fov = cd.fov.unwrap_or(40.0);
         if !(fov > 0.0 && fov < 180.0) {

@@ -58,7 +58,11 @@ impl Ctx<'_> {
             * Quat::from_rotation_x(r.x.to_radians());
         let transformed = sd.scale.is_some() || sd.rotate.is_some() || sd.translate.is_some();
         if transformed {
-            mesh.transform(&Mat4::from_scale_rotation_translation(scale, rotation, t));
+            mesh.transform(&Mat4::from_scale_rotation_translation(
+                scale.into(),
+                rotation,
+                t.into(),
+            ));
         }
         // Every vertex where it lands in the world, the file's own
         // or transformed, within the coordinates luz can intersect.

@@ -144,7 +144,7 @@ impl Ctx<'_> {
                 }
                 let mut positions = Vec::with_capacity(3);
                 for v in vertices {
-                    positions.push(self.point3(span, "vertices", *v)?);
+                    positions.push(self.point3(span, "vertices", *v)?.into());
                 }
                 if crate::scene::mesh_io::is_degenerate([positions[0], positions[1], positions[2]])
                 {

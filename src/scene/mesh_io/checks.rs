@@ -3,9 +3,9 @@
 //! what of a file luz did not use.
 
 use super::groups::MaterialGroups;
-use crate::math::{Vec2, Vec3};
+use crate::math::{PackedVec3, Vec2};
 
-pub(super) fn check_finite(p: Vec3, uv: Option<Vec2>, vertex: usize) -> Result<(), String> {
+pub(super) fn check_finite(p: PackedVec3, uv: Option<Vec2>, vertex: usize) -> Result<(), String> {
     if !p.is_finite() {
         return Err(format!(
             "vertex {vertex}: coordinates must be finite, got ({}, {}, {})",
@@ -25,7 +25,11 @@ pub(super) fn check_finite(p: Vec3, uv: Option<Vec2>, vertex: usize) -> Result<(
 
 /// Fails for a vertex normal that is not finite; `fields` names them as
 /// the file does.
-pub(super) fn check_finite_normal(n: Vec3, vertex: usize, fields: &str) -> Result<(), String> {
+pub(super) fn check_finite_normal(
+    n: PackedVec3,
+    vertex: usize,
+    fields: &str,
+) -> Result<(), String> {
     if n.is_finite() {
         return Ok(());
     }
@@ -41,8 +45,8 @@ pub(super) const NORMALS_DROPPED: &str = "vertex normals dropped: not every face
 
 /// The note on a mesh's vertex normals of zero length, if it has any:
 /// shading takes the face normal at such a vertex's corners.
-pub(super) fn zero_normals_note(normals: Option<&[Vec3]>) -> Option<String> {
-    let zero = normals?.iter().filter(|n| **n == Vec3::ZERO).count();
+pub(super) fn zero_normals_note(normals: Option<&[PackedVec3]>) -> Option<String> {
+    let zero = normals?.iter().filter(|n| **n == PackedVec3::ZERO).count();
     (zero > 0).then(|| {
         format!("{zero} vertex normals of zero length: the face normal stands in at their corners")
     })
@@ -79,8 +83,8 @@ pub(super) fn no_faces(triangles: usize) -> String {
 /// A triangle whose f32 cross product underflows to zero (edges of 1e-20)
 /// is degenerate too, whatever its shape: its normal would be zero and the
 /// intersection tests never hit it ([`crate::geometry::has_zero_area`]).
-pub(crate) fn is_degenerate(p @ [a, b, c]: [Vec3; 3]) -> bool {
-    if crate::geometry::has_zero_area(p) {
+pub(crate) fn is_degenerate(p @ [a, b, c]: [PackedVec3; 3]) -> bool {
+    if crate::geometry::has_zero_area(p.map(Into::into)) {
         return true;
     }
     // In f64, so no finite f32 coordinates overflow.
@@ -99,11 +103,11 @@ pub(crate) fn is_degenerate(p @ [a, b, c]: [Vec3; 3]) -> bool {
 /// ulps (1e-15 relative), far inside the margin, so a sure answer is
 /// [`is_degenerate`]'s.
 #[inline(always)]
-fn classify(p @ [a, b, c]: [Vec3; 3]) -> u8 {
+fn classify(p @ [a, b, c]: [PackedVec3; 3]) -> u8 {
     if surely_not_degenerate(p) {
         return SURE_NO;
     }
-    let zero = crate::geometry::has_zero_area(p);
+    let zero = crate::geometry::has_zero_area(p.map(Into::into));
     let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
     let (e1, e2) = (b - a, c - a);
     let x = e1.cross(e2).length_squared();
@@ -126,7 +130,7 @@ fn classify(p @ [a, b, c]: [Vec3; 3]) -> u8 {
 /// component), and the squared lengths within about 11 ulps: an answer of
 /// `true` is [`is_degenerate`]'s `false`. `false` means not sure.
 #[inline(always)]
-fn surely_not_degenerate([a, b, c]: [Vec3; 3]) -> bool {
+fn surely_not_degenerate([a, b, c]: [PackedVec3; 3]) -> bool {
     let (e1, e2) = (b - a, c - a);
     let (l1, l2) = (e1.length_squared(), e2.length_squared());
     let x = e1.cross(e2).length_squared();
@@ -144,7 +148,7 @@ const UNSURE: u8 = 2;
 /// Whether triangle `t` of `positions` is degenerate: [`is_degenerate`],
 /// through [`classify`].
 #[inline(always)]
-fn degenerate_at(positions: &[Vec3], t: &[u32; 3]) -> bool {
+fn degenerate_at(positions: &[PackedVec3], t: &[u32; 3]) -> bool {
     let p = t.map(|i| positions[i as usize]);
     match classify(p) {
         SURE_NO => false,
@@ -155,7 +159,7 @@ fn degenerate_at(positions: &[Vec3], t: &[u32; 3]) -> bool {
 
 /// Whether any triangle of `block` is degenerate: one pass of
 /// [`classify`], then the exact test only for the unsure ones.
-fn any_degenerate(positions: &[Vec3], block: &[[u32; 3]]) -> bool {
+fn any_degenerate(positions: &[PackedVec3], block: &[[u32; 3]]) -> bool {
     let mut seen = 0u8;
     for t in block {
         seen |= 1 << classify(t.map(|i| positions[i as usize]));
@@ -170,13 +174,13 @@ fn any_degenerate(positions: &[Vec3], block: &[[u32; 3]]) -> bool {
 /// threshold); when it finds one, the triangles
 /// are marked in parallel and the marks drive one serial compaction.
 /// Returns how many it dropped.
-pub(crate) fn drop_degenerate(positions: &[Vec3], indices: &mut Vec<[u32; 3]>) -> usize {
+pub(crate) fn drop_degenerate(positions: &[PackedVec3], indices: &mut Vec<[u32; 3]>) -> usize {
     drop_degenerate_grouped(positions, indices, &mut MaterialGroups::default())
 }
 
 /// [`drop_degenerate`], keeping the material runs of an OBJ mesh in step.
 pub(crate) fn drop_degenerate_grouped(
-    positions: &[Vec3],
+    positions: &[PackedVec3],
     indices: &mut Vec<[u32; 3]>,
     groups: &mut MaterialGroups,
 ) -> usize {
@@ -204,7 +208,7 @@ pub(crate) fn drop_degenerate_grouped(
 mod tests {
     use super::super::test_support::{err, ply};
     use super::{degenerate_at, drop_degenerate, is_degenerate, surely_not_degenerate};
-    use crate::math::Vec3;
+    use crate::math::PackedVec3;
 
     fn xorshift(x: &mut u64) -> u64 {
         *x ^= *x << 13;
@@ -226,7 +230,7 @@ mod tests {
         for k in 0..200_000 {
             // Every case meets every scale.
             let scale = [1e-30f32, 1e-20, 1e-6, 1.0, 1e6, 1e30][(k / 4) % 6];
-            let v = |x: &mut u64| Vec3::new(unit(x), unit(x), unit(x)) * scale;
+            let v = |x: &mut u64| PackedVec3::new(unit(x), unit(x), unit(x)) * scale;
             let a = v(&mut x);
             let mut b = v(&mut x);
             let c = match k % 4 {
@@ -237,17 +241,17 @@ mod tests {
                     // Angle at `a` near the threshold of 1e-6 rad (within
                     // ±1.5e-7 once `c` is nudged by a few ulps), on both
                     // sides of it.
-                    b = a + Vec3::X * scale;
+                    b = a + PackedVec3::X * scale;
                     let h = 1e-6 * (1.0 + 1e-5 * unit(&mut x));
-                    let c = a + Vec3::new(1.0, h, 0.0) * scale;
-                    Vec3::from_array(c.to_array().map(|f| {
+                    let c = a + PackedVec3::new(1.0, h, 0.0) * scale;
+                    PackedVec3::from_array(c.to_array().map(|f| {
                         f32::from_bits(f.to_bits().wrapping_add((xorshift(&mut x) % 5) as u32))
                     }))
                 }
             };
             tris.push([a, b, c]);
         }
-        let positions: Vec<Vec3> = tris.iter().flatten().copied().collect();
+        let positions: Vec<PackedVec3> = tris.iter().flatten().copied().collect();
         let indices: Vec<[u32; 3]> = (0..tris.len() as u32)
             .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
             .collect();

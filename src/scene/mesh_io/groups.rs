@@ -189,7 +189,7 @@ impl GroupsBuilder {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::math::{Vec2, Vec3};
+    use crate::math::{PackedVec3, Vec2};
 
     /// Materials switched before triangles 0 (a), 2 (b, then a at once),
     /// 3 (b), 5 (b again) and 6 (c, at the end: no triangle).
@@ -237,8 +237,8 @@ mod tests {
     #[test]
     fn split_gives_each_material_its_triangles_and_only_their_vertices() {
         // A strip of 4 triangles over 6 vertices: a, b, a, none first.
-        let positions: Vec<Vec3> = (0..6)
-            .map(|i| Vec3::new(i as f32, (i % 2) as f32, 0.0))
+        let positions: Vec<PackedVec3> = (0..6)
+            .map(|i| PackedVec3::new(i as f32, (i % 2) as f32, 0.0))
             .collect();
         let uvs: Vec<Vec2> = (0..6).map(|i| Vec2::new(i as f32, 0.5)).collect();
         let mesh = Mesh {
@@ -254,7 +254,7 @@ mod tests {
         let parts = b.finish(4).split(mesh.clone());
         let ids: Vec<Option<u32>> = parts.iter().map(|p| p.0).collect();
         assert_eq!(ids, [None, Some(0), Some(1)]);
-        let world = |m: &Mesh| -> Vec<[Vec3; 3]> {
+        let world = |m: &Mesh| -> Vec<[crate::math::Vec3; 3]> {
             (0..m.indices.len() as u32).map(|t| m.vertices(t)).collect()
         };
         let original = world(&mesh);

@@ -10,7 +10,7 @@ use super::obj_scan::{scan_obj, Seen};
 use super::MeshFile;
 use crate::geometry::Mesh;
 use crate::location::line_column;
-use crate::math::{Vec2, Vec3};
+use crate::math::{PackedVec3, Vec2};
 
 /// Reads an OBJ file: in parallel chunks ([`parse_obj_chunks`]) when its
 /// statements allow, else serially.
@@ -114,7 +114,7 @@ fn merge(
         mesh.positions.extend(
             m.positions
                 .chunks_exact(3)
-                .map(|p| Vec3::new(p[0], p[1], p[2])),
+                .map(|p| PackedVec3::new(p[0], p[1], p[2])),
         );
         if let Some(uvs) = &mut mesh.uvs {
             uvs.extend(m.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], t[1])));
@@ -123,7 +123,7 @@ fn merge(
             normals.extend(
                 m.normals
                     .chunks_exact(3)
-                    .map(|n| Vec3::new(n[0], n[1], n[2]).normalize_or_zero()),
+                    .map(|n| PackedVec3::new(n[0], n[1], n[2]).normalize_or_zero()),
             );
         }
         for t in m.indices.chunks_exact(3) {
@@ -161,7 +161,7 @@ fn check_all_finite(text: &str, mesh: &Mesh) -> Result<(), Fail> {
 #[cfg(test)]
 mod tests {
     use super::{parse_obj_chunks, parse_obj_serial};
-    use crate::math::{Vec2, Vec3};
+    use crate::math::{PackedVec3, Vec2};
     use crate::scene::mesh_io::test_support::{assets, load_str};
 
     /// The chunked reader, where it decides, gives the serial reader's mesh
@@ -281,10 +281,10 @@ mod tests {
         let parts = g.split(read.mesh);
         let ids: Vec<Option<u32>> = parts.iter().map(|p| p.0).collect();
         assert_eq!(ids, [None, Some(0), Some(1)]);
-        let corners = |m: &crate::geometry::Mesh| -> Vec<[Vec3; 3]> {
+        let corners = |m: &crate::geometry::Mesh| -> Vec<[crate::math::Vec3; 3]> {
             (0..m.indices.len() as u32).map(|t| m.vertices(t)).collect()
         };
-        let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z);
+        let v = |x: f32, y: f32, z: f32| crate::math::Vec3::new(x, y, z);
         assert_eq!(
             corners(&parts[0].1),
             [[v(0., 0., 0.), v(1., 0., 0.), v(1., 1., 0.)]]
@@ -324,9 +324,9 @@ mod tests {
         }
         // The second object's triangle refers to its own vertices.
         let [a, b, c] = m.indices[2];
-        assert_eq!(m.positions[a as usize], Vec3::new(0.0, 0.0, 1.0));
-        assert_eq!(m.positions[b as usize], Vec3::new(1.0, 0.0, 1.0));
-        assert_eq!(m.positions[c as usize], Vec3::new(1.0, 1.0, 1.0));
+        assert_eq!(m.positions[a as usize], PackedVec3::new(0.0, 0.0, 1.0));
+        assert_eq!(m.positions[b as usize], PackedVec3::new(1.0, 0.0, 1.0));
+        assert_eq!(m.positions[c as usize], PackedVec3::new(1.0, 1.0, 1.0));
         assert_eq!(uvs[c as usize], Vec2::new(0.5, 0.5));
         // Fan triangulation of the quad keeps its area.
         let area: f32 = (0..2).map(|i| m.triangle_area(i)).sum();

@@ -16,7 +16,7 @@ use super::chunks::line_chunks;
 use super::obj_merge::{build, groups};
 use super::ply::{parse_float, Ty};
 use super::MeshFile;
-use crate::math::{Vec2, Vec3};
+use crate::math::{PackedVec3, Vec2};
 use crate::meter::Step;
 
 /// No texture coordinate or normal at a corner.
@@ -28,9 +28,9 @@ pub(super) const MAX_UNUSED_KEYWORDS: usize = 32;
 /// What one chunk read.
 #[derive(Default)]
 pub(super) struct Part {
-    pub(super) positions: Vec<Vec3>,
+    pub(super) positions: Vec<PackedVec3>,
     pub(super) texcoords: Vec<Vec2>,
-    pub(super) normals: Vec<Vec3>,
+    pub(super) normals: Vec<PackedVec3>,
     /// Per triangle, the position index of each corner, and the texture
     /// coordinate and normal indices once a corner has one.
     pub(super) tri_v: Vec<[u32; 3]>,
@@ -231,7 +231,7 @@ fn statement(
 ) -> Result<(), Stop> {
     match kw {
         b"v" => {
-            let v = Vec3::new(float(c.word())?, float(c.word())?, float(c.word())?);
+            let v = PackedVec3::new(float(c.word())?, float(c.word())?, float(c.word())?);
             if c.word().is_some() {
                 // A weight, colours or anything else: `tobj` reads them.
                 return Err(Stop::Bail);
@@ -244,7 +244,7 @@ fn statement(
         }
         b"vn" => {
             // A normal that is not finite is the serial reader's error.
-            p.normals.push(Vec3::new(
+            p.normals.push(PackedVec3::new(
                 float(c.word())?,
                 float(c.word())?,
                 float(c.word())?,

@@ -2,7 +2,7 @@
 
 use super::{load_mesh, MeshError};
 use crate::geometry::Mesh;
-use crate::math::{Vec2, Vec3};
+use crate::math::{PackedVec3, Vec2};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -71,9 +71,9 @@ end_header\r
 
 pub(super) fn check_example(m: &Mesh) {
     assert_eq!(m.positions.len(), 5);
-    assert_eq!(m.positions[2], Vec3::new(1.0, 1.5, 0.0));
-    assert_eq!(m.positions[3], Vec3::new(0.0, 1.0, -2.0));
-    assert_eq!(m.positions[4], Vec3::new(5.0, 0.25, 7.0));
+    assert_eq!(m.positions[2], PackedVec3::new(1.0, 1.5, 0.0));
+    assert_eq!(m.positions[3], PackedVec3::new(0.0, 1.0, -2.0));
+    assert_eq!(m.positions[4], PackedVec3::new(5.0, 0.25, 7.0));
     assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3], [0, 2, 4]]);
     let uvs = m.uvs.as_ref().expect("uvs");
     assert_eq!(uvs[1], Vec2::new(1.0, 0.0));

@@ -103,7 +103,7 @@ impl<'e> Builder<'e, '_> {
             false => props.point("position")?.unwrap_or(DVec3::ZERO),
             true => DVec3::ZERO,
         };
-        let position = m.transform_point3(at).as_vec3();
+        let position = m.transform_point3(at).as_vec3a();
         if !within_bounds(position) {
             return Err(e.loc.error("`position` lies beyond ±1e12"));
         }
@@ -176,7 +176,7 @@ impl<'e> Builder<'e, '_> {
 
 /// A `spot` emitter's cone, its angles checked as Mitsuba asserts them.
 fn spot_cone(e: &Elem, props: &Props, to_world: DMat4) -> Result<SpotCone, SceneError> {
-    let axis = to_world.transform_vector3(DVec3::Z).as_vec3();
+    let axis = to_world.transform_vector3(DVec3::Z).as_vec3a();
     if !axis.is_finite() || axis.length_squared() == 0.0 {
         return Err(e.loc.error("`to_world` collapses the spot light's axis"));
     }

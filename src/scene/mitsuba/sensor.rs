@@ -144,14 +144,14 @@ fn camera(
     // A target one unit (or a thousandth of the distance to the origin)
     // ahead stays distinct from the eye in f32.
     let target = eye + forward * eye.length().mul_add(1e-3, 1.0);
-    let (eye, target) = (eye.as_vec3(), target.as_vec3());
+    let (eye, target) = (eye.as_vec3a(), target.as_vec3a());
     if !within_bounds(eye) || !within_bounds(target) {
         return Err(e.loc.error("`to_world`: the camera lies beyond ±1e12"));
     }
     Ok(Camera {
         eye,
         target,
-        up: up.as_vec3(),
+        up: up.as_vec3a(),
         fov_y,
         fov_axis: FovAxis::X,
         width,

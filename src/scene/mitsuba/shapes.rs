@@ -234,7 +234,7 @@ impl<'e> Builder<'e, '_> {
                 "`flip_normals`: luz's spheres emit outwards only; the flip is left out",
             )?;
         }
-        let center = m.transform_point3(center).as_vec3();
+        let center = m.transform_point3(center).as_vec3a();
         let radius = (radius * scales.iter().sum::<f64>() / 3.0) as f32;
         if !(radius > 0.0 && radius.is_finite()) {
             return Err(e
@@ -265,7 +265,7 @@ fn checked(e: &Elem, mesh: Mesh) -> Result<Mesh, SceneError> {
 
 /// The square [-1, 1]² at z = 0, front +z.
 fn rectangle(e: &Elem, m: &DMat4) -> Result<Geometry, SceneError> {
-    let p = |x: f64, y: f64| m.transform_point3(DVec3::new(x, y, 0.0)).as_vec3();
+    let p = |x: f64, y: f64| m.transform_point3(DVec3::new(x, y, 0.0)).as_vec3a();
     let (p0, p1, p3) = (p(-1.0, -1.0), p(1.0, -1.0), p(-1.0, 1.0));
     for c in [p0, p1, p3, p1 + p3 - p0] {
         if !within_bounds(c) {

@@ -24,7 +24,7 @@ pub(super) enum Use {
 pub(super) fn uniform(v: f64, use_: Use) -> Rgb {
     match use_ {
         Use::Reflectance | Use::Index => Rgb::splat(v as f32),
-        Use::Emission => (xyz_to_srgb([1.0; 3]) * v).as_vec3(),
+        Use::Emission => (xyz_to_srgb([1.0; 3]) * v).as_vec3a(),
     }
 }
 
@@ -68,7 +68,7 @@ pub(super) fn to_rgb(wavelengths: &[f64], values: &[f64], use_: Use) -> Option<R
         Use::Reflectance => rgb.clamp(glam::DVec3::ZERO, glam::DVec3::ONE),
         Use::Emission | Use::Index => rgb.max(glam::DVec3::ZERO),
     };
-    Some(rgb.as_vec3())
+    Some(rgb.as_vec3a())
 }
 
 /// Table lookup with linear interpolation, zero outside 360–830 nm.

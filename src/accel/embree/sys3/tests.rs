@@ -14,7 +14,7 @@ fn linked_library_has_the_bindings_major_version() {
 fn embree_errors_reach_the_caller_with_embrees_message() {
     let d = Device::new(None).unwrap();
     let s = d.new_scene(EmbreeQuality::Medium, false, false).unwrap();
-    let positions = [Vec3::ZERO, Vec3::X, Vec3::Y];
+    let positions = [PackedVec3::ZERO, PackedVec3::X, PackedVec3::Y];
     // SAFETY: not shared, so Embree copies the arrays.
     let g = unsafe { d.new_triangles(&positions, false, &[[0, 1, 2]], EmbreeQuality::Medium) };
     let g = g.unwrap();

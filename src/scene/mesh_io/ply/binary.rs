@@ -301,7 +301,7 @@ fn face_indices<const BE: bool>(
 
 #[cfg(test)]
 mod tests {
-    use crate::math::Vec3;
+    use crate::math::PackedVec3;
     use crate::scene::mesh_io::load_mesh;
     use crate::scene::mesh_io::test_support::{binary_example, check_example, err, write};
 
@@ -355,7 +355,7 @@ mod tests {
             }
             let m = load_mesh(&write("f.ply", &data)).unwrap();
             assert_eq!(m.indices, vec![[3, 2, 1], [3, 1, 0]], "{ct} {it} {fmt}");
-            assert_eq!(m.positions[2], Vec3::new(1.0, 1.0, 0.0));
+            assert_eq!(m.positions[2], PackedVec3::new(1.0, 1.0, 0.0));
             assert!(m.uvs.is_none());
         }
     }

@@ -1,7 +1,7 @@
 //! The mesh a PLY body's records are read into.
 
 use super::plan::{Plan, Vertex};
-use crate::math::{Vec2, Vec3};
+use crate::math::{PackedVec3, Vec2};
 use crate::memory;
 use crate::meter::Step;
 use crate::scene::mesh_io::checks::{check_finite, check_finite_normal};
@@ -9,9 +9,9 @@ use rayon::prelude::*;
 use std::mem::MaybeUninit;
 
 pub(super) struct Builder {
-    pub(super) positions: Vec<Vec3>,
+    pub(super) positions: Vec<PackedVec3>,
     pub(super) uvs: Option<Vec<Vec2>>,
-    pub(super) normals: Option<Vec<Vec3>>,
+    pub(super) normals: Option<Vec<PackedVec3>>,
     pub(super) indices: Vec<[u32; 3]>,
     nv: u32,
     poly: Vec<u32>,
@@ -68,9 +68,9 @@ impl Builder {
     }
 
     pub(super) fn vertex(&mut self, v: Vertex) -> Result<(), String> {
-        let p = Vec3::new(v[0], v[1], v[2]);
+        let p = PackedVec3::new(v[0], v[1], v[2]);
         let uv = Vec2::new(v[3], v[4]);
-        let normal = Vec3::new(v[5], v[6], v[7]);
+        let normal = PackedVec3::new(v[5], v[6], v[7]);
         let n = self.base + self.positions.len();
         check_finite(p, self.uvs.is_some().then_some(uv), n)?;
         self.positions.push(p);
@@ -169,19 +169,19 @@ const VERTEX_CHUNK: usize = 1 << 15;
 
 /// Writes the packed x y z `records` into `out`, one slot per 12 bytes, and
 /// returns the written slots.
-fn copy_positions<'a>(out: &'a mut [MaybeUninit<Vec3>], records: &[u8]) -> &'a [Vec3] {
-    assert_eq!(out.len() * size_of::<Vec3>(), records.len());
-    // SAFETY: `Vec3` is three f32 without padding (it is `Pod`), so any 12
+fn copy_positions<'a>(out: &'a mut [MaybeUninit<PackedVec3>], records: &[u8]) -> &'a [PackedVec3] {
+    assert_eq!(out.len() * size_of::<PackedVec3>(), records.len());
+    // SAFETY: `PackedVec3` is three f32 without padding (it is `Pod`), so any 12
     // bytes are one; the lengths match (checked above) and the slices are
     // distinct allocations. Every slot of `out` is written before it is
-    // read back as `Vec3`.
+    // read back as `PackedVec3`.
     unsafe {
         std::ptr::copy_nonoverlapping(
             records.as_ptr(),
             out.as_mut_ptr().cast::<u8>(),
             records.len(),
         );
-        std::slice::from_raw_parts(out.as_ptr().cast::<Vec3>(), out.len())
+        std::slice::from_raw_parts(out.as_ptr().cast::<PackedVec3>(), out.len())
     }
 }
 

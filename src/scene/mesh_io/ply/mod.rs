@@ -129,7 +129,7 @@ pub(super) fn trailing(at: usize, elements: &[Element], inflated: bool) -> Fail 
 mod tests {
     use super::builder::push_polygon;
     use super::parse_ply;
-    use crate::math::Vec3;
+    use crate::math::PackedVec3;
     use crate::scene::mesh_io::load_mesh;
     use crate::scene::mesh_io::test_support::{assets, corruptions, examples};
 
@@ -177,7 +177,10 @@ mod tests {
             other => panic!("unexpected {other:?}"),
         };
         for (v, p) in ply.payload["vertex"].iter().zip(&mesh.positions) {
-            assert_eq!(Vec3::new(num(&v["x"]), num(&v["y"]), num(&v["z"])), *p);
+            assert_eq!(
+                PackedVec3::new(num(&v["x"]), num(&v["y"]), num(&v["z"])),
+                *p
+            );
         }
         let mut tris = Vec::new();
         for f in &ply.payload["face"] {

@@ -15,7 +15,7 @@ use super::checks::{
 };
 use super::{MeshError, MeshFile};
 use crate::geometry::Mesh;
-use crate::math::{Vec2, Vec3};
+use crate::math::{PackedVec3, Vec2};
 use flate2::read::ZlibDecoder;
 use std::io::Read;
 use std::path::Path;
@@ -234,7 +234,8 @@ fn read_mesh<R: Read>(z: &mut Reader<R>, version: u16, most: u64) -> Result<Raw,
 
 /// The checks every mesh passes; `Err((no_area, message))`.
 fn finish(raw: Raw) -> Result<MeshFile, (bool, String)> {
-    let v3 = |f: &[f32]| -> Vec<Vec3> { f.chunks_exact(3).map(Vec3::from_slice).collect() };
+    let v3 =
+        |f: &[f32]| -> Vec<PackedVec3> { f.chunks_exact(3).map(PackedVec3::from_slice).collect() };
     let positions = v3(&raw.positions);
     let uvs: Option<Vec<Vec2>> = raw
         .uvs
@@ -247,7 +248,7 @@ fn finish(raw: Raw) -> Result<MeshFile, (bool, String)> {
         }
     }
     // Unit length, as every reader keeps them for interpolation.
-    let normals = normals.map(|ns| ns.into_iter().map(Vec3::normalize_or_zero).collect());
+    let normals = normals.map(|ns| ns.into_iter().map(PackedVec3::normalize_or_zero).collect());
     let n = positions.len() as u32;
     let mut indices = Vec::with_capacity(raw.indices.len() / 3);
     for (f, t) in raw.indices.chunks_exact(3).enumerate() {

@@ -90,11 +90,11 @@ fn meshes_of_both_versions_read_by_index() {
         );
         let quad = read(&data, 0).unwrap().mesh;
         assert_eq!(quad.indices, vec![[0, 1, 2], [0, 2, 3]]);
-        assert_eq!(quad.positions[2], Vec3::new(1.0, 1.0, 0.0));
-        assert_eq!(quad.normals.as_deref(), Some(&[Vec3::Z; 4][..]));
+        assert_eq!(quad.positions[2], PackedVec3::new(1.0, 1.0, 0.0));
+        assert_eq!(quad.normals.as_deref(), Some(&[PackedVec3::Z; 4][..]));
         assert_eq!(quad.uvs.as_ref().unwrap()[2], Vec2::new(1.0, 1.0));
         let tri = read(&data, 1).unwrap().mesh;
-        assert_eq!(tri.positions[1], Vec3::new(2.0, 0.0, 1.0));
+        assert_eq!(tri.positions[1], PackedVec3::new(2.0, 0.0, 1.0));
         assert!(tri.normals.is_none() && tri.uvs.is_none());
         let past = message(&data, 2);
         assert!(
@@ -219,10 +219,10 @@ fn a_mitsuba_shape_reads_the_mesh_of_its_index() {
     };
     assert_eq!(
         mesh.positions,
-        TRIANGLE.map(|p| Vec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
+        TRIANGLE.map(|p| PackedVec3::new(p[0] as f32, p[1] as f32, p[2] as f32))
     );
     let m = &s.materials[s.shapes[0].material as usize];
-    assert_eq!(m.kd, Vec3::splat(0.25));
+    assert_eq!(m.kd, crate::math::Rgb::splat(0.25));
     assert!(s.warnings.is_empty(), "{:?}", s.warnings);
     let _ = std::fs::remove_dir_all(&dir);
 }
