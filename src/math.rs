@@ -173,9 +173,7 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
         offset = -offset;
     }
     let po = p + offset;
-    let lanes = |v: Vec3| F4::load(&[v.x, v.y, v.z, 0.0]);
-    let [x, y, z, _] = lanes(po).step_towards(lanes(offset)).to_array();
-    Vec3::new(x, y, z)
+    F4::from(po).step_towards(F4::from(offset)).into()
 }
 
 /// Ray from a surface point towards direction `w`.

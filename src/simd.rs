@@ -20,6 +20,22 @@ mod imp {
     #[derive(Clone, Copy)]
     pub struct M4(__m128);
 
+    /// The vector's register as it is: its fourth lane is unspecified.
+    impl From<crate::math::Vec3> for F4 {
+        #[inline(always)]
+        fn from(v: crate::math::Vec3) -> F4 {
+            F4(v.into())
+        }
+    }
+
+    /// The first three lanes.
+    impl From<F4> for crate::math::Vec3 {
+        #[inline(always)]
+        fn from(v: F4) -> crate::math::Vec3 {
+            v.0.into()
+        }
+    }
+
     macro_rules! binop {
         ($name:ident, $intr:ident) => {
             #[inline(always)]
@@ -168,6 +184,22 @@ mod imp {
 
     #[derive(Clone, Copy)]
     pub struct M4([bool; 4]);
+
+    /// The fourth lane is unspecified (zero here).
+    impl From<crate::math::Vec3> for F4 {
+        #[inline(always)]
+        fn from(v: crate::math::Vec3) -> F4 {
+            F4([v.x, v.y, v.z, 0.0])
+        }
+    }
+
+    /// The first three lanes.
+    impl From<F4> for crate::math::Vec3 {
+        #[inline(always)]
+        fn from(v: F4) -> crate::math::Vec3 {
+            crate::math::Vec3::new(v.0[0], v.0[1], v.0[2])
+        }
+    }
 
     macro_rules! binop {
         ($name:ident, $f:expr) => {

@@ -57,14 +57,16 @@ impl Extent {
     /// nodes, one box wide, its three axes in the lanes of one vector: a
     /// NaN distance (a direction component of zero with the origin on the
     /// box's plane) leaves the interval unchanged, as `maxps`/`minps` keep
-    /// their second operand then. The fourth lane is the interval itself.
+    /// their second operand then.
     #[inline(always)]
     pub(super) fn touches(&self, ray: &Ray) -> bool {
-        let (o, d) = (ray.origin, ray.dir);
-        let origin = F4::load(&[o.x, o.y, o.z, 0.0]);
-        let inv = F4::splat(1.0).div(F4::load(&[d.x, d.y, d.z, 1.0]));
+        let origin = F4::from(ray.origin);
+        let inv = F4::splat(1.0).div(F4::from(ray.dir));
         // A traceable direction is finite, so `inv` is never ±0 and has the
-        // sign of the direction, that of -0 included.
+        // sign of the direction, that of -0 included. The vectors' fourth
+        // lanes are unspecified: whatever they hold, the box's (−∞, +∞)
+        // there gives −∞ or NaN near and +∞ or NaN far, which leave the
+        // interval as it is.
         let negative = inv.lt(F4::splat(0.0));
         let (min, max) = (F4::load(&self.min), F4::load(&self.max));
         let tn = negative.select(max, min).sub(origin).mul(inv);
@@ -133,6 +135,49 @@ mod tests {
         let on_face = Vec3::new(extent.min[0], 0.0, 0.0);
         assert!(extent.touches(&Ray::new(on_face, Vec3::Y)));
         assert!(!extent.touches(&Ray::new(Vec3::new(-2.0, 0.0, 0.0), Vec3::Y)));
+    }
+
+    /// Whatever a vector's unused fourth lane holds, the answer is that of
+    /// its three coordinates.
+    #[test]
+    fn the_fourth_lane_does_not_matter() {
+        let (_, extent) = sphere_extent(Vec3::ZERO, 1.0);
+        let with_w = |v: Vec3, w: f32| Vec3::from(F4::load(&[v.x, v.y, v.z, w]));
+        let lanes = [
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            1e30,
+            -1e-40,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+        ];
+        let mut rng = Rng::new(8, 1);
+        for _ in 0..200 {
+            let origin = 3.0 * uniform_sphere(rng.next_2d());
+            let dir = (0.8 * uniform_sphere(rng.next_2d()) - origin).normalize();
+            for mut ray in [
+                Ray::new(origin, dir),
+                Ray::new(Vec3::new(1.0, 0.0, 0.0), Vec3::Y),
+            ] {
+                ray.t_max = 2.0 + 4.0 * rng.next_f32();
+                let want = extent.touches(&ray);
+                for (&wo, &wd) in lanes
+                    .iter()
+                    .zip(lanes.iter().rev())
+                    .chain(lanes.iter().zip(&lanes))
+                {
+                    let garbled = Ray {
+                        origin: with_w(ray.origin, wo),
+                        dir: with_w(ray.dir, wd),
+                        ..ray
+                    };
+                    assert_eq!(extent.touches(&garbled), want, "{ray:?} with {wo}, {wd}");
+                }
+            }
+        }
     }
 
     #[test]
