@@ -134,7 +134,9 @@ impl Mesh {
     /// whose faces cancel out gets a zero normal, which shading replaces
     /// with the face normal (Mitsuba writes an arbitrary (1, 0, 0)).
     pub fn compute_vertex_normals(&mut self) {
-        let mut sums = vec![Vec3::ZERO; self.positions.len()];
+        // Summed in the stored layout, in place: a large mesh's normals
+        // need not exist twice.
+        let mut sums = vec![PackedVec3::ZERO; self.positions.len()];
         for &tri in &self.indices {
             let p = tri.map(|i| Vec3::from(self.positions[i as usize]));
             let n = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
@@ -144,10 +146,13 @@ impl Mesh {
             for k in 0..3 {
                 let d0 = (p[(k + 1) % 3] - p[k]).normalize_or_zero();
                 let d1 = (p[(k + 2) % 3] - p[k]).normalize_or_zero();
-                sums[tri[k] as usize] += n * unit_angle(d0, d1);
+                sums[tri[k] as usize] += PackedVec3::from(n * unit_angle(d0, d1));
             }
         }
-        self.normals = Some(sums.iter().map(|n| n.normalize_or_zero().into()).collect());
+        for n in &mut sums {
+            *n = Vec3::from(*n).normalize_or_zero().into();
+        }
+        self.normals = Some(sums);
     }
 }
 

@@ -49,8 +49,7 @@ impl<'a> Triangles<'a> {
     pub(super) fn vertex_bounds(&self) -> Aabb {
         self.meshes
             .par_iter()
-            .flat_map(|mesh| mesh.positions.par_chunks(1 << 16))
-            .map(Aabb::from_points)
+            .map(|mesh| mesh.bounds())
             .reduce(|| Aabb::EMPTY, Aabb::union)
     }
 
