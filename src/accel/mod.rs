@@ -35,6 +35,7 @@ mod extent;
 pub mod native;
 mod quality;
 mod root;
+mod sphere_pack;
 
 pub use quality::{Quality, Work};
 

@@ -69,8 +69,10 @@ impl Sphere {
         b2 - a * (ff - rr) < -1e-3 * (b2 + a * (ff + rr))
     }
 
+    /// The hit in `(ray.t_min, t_max)`, for callers that have made the
+    /// quick rejection themselves (the root's `SpherePack`).
     #[inline(never)]
-    fn intersect_precisely(&self, ray: &Ray, t_max: f32) -> Option<PrimHit> {
+    pub fn intersect_precisely(&self, ray: &Ray, t_max: f32) -> Option<PrimHit> {
         let f = ray.origin - self.center;
         let a = ray.dir.length_squared();
         let b = -f.dot(ray.dir);
