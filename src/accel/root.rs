@@ -122,6 +122,9 @@ pub struct RootShapes {
     spheres: SpherePack,
     /// Scene id and a copy of every other root shape.
     others: Vec<(u32, Geometry)>,
+    /// Whether `spheres` or `others` hold any: one test for the scenes
+    /// whose root holds only quads (or nothing).
+    beyond_quads: bool,
 }
 
 impl RootShapes {
@@ -181,6 +184,7 @@ impl RootShapes {
                 g => root.others.push((geom, g.clone())),
             }
         }
+        root.beyond_quads = !root.spheres.is_empty() || !root.others.is_empty();
         (root, in_root)
     }
 
@@ -192,6 +196,9 @@ impl RootShapes {
     #[inline(always)]
     pub fn closest(&self, ray: &Ray) -> Option<PreliminaryHit> {
         let mut best = self.closest_quad(ray);
+        if !self.beyond_quads {
+            return best;
+        }
         let mut t_max = best.map_or(ray.t_max, |h| h.t);
         if let Some((geom, h)) = self.spheres.closest(ray, t_max) {
             t_max = h.t;
@@ -222,11 +229,12 @@ impl RootShapes {
     #[inline]
     pub fn any_hit(&self, ray: &Ray) -> bool {
         self.any_quad(ray)
-            || self.spheres.any_hit(ray)
-            || self
-                .others
-                .iter()
-                .any(|(_, g)| intersect(g, ray, ray.t_max).is_some())
+            || self.beyond_quads
+                && (self.spheres.any_hit(ray)
+                    || self
+                        .others
+                        .iter()
+                        .any(|(_, g)| intersect(g, ray, ray.t_max).is_some()))
     }
 
     /// The closest quad hit, eight quads at a time where the CPU has AVX.
@@ -266,16 +274,26 @@ impl RootShapes {
                 t.store(&mut ts);
                 u.store(&mut us);
                 v.store(&mut vs);
+                let lane_hit = |k: usize| PreliminaryHit {
+                    t: ts[k],
+                    geom: pack.geom[first + k],
+                    prim: 0,
+                    u: us[k],
+                    v: vs[k],
+                };
+                if mask & (mask - 1) == 0 {
+                    // One lane, the common case (a ray meets one wall of a
+                    // box), and below `t_max` already: taken without a
+                    // test per lane, whose branches follow the wall hit.
+                    let k = mask.trailing_zeros() as usize;
+                    t_max = ts[k];
+                    best = Some(lane_hit(k));
+                    continue;
+                }
                 for k in 0..L::N {
                     if mask & (1 << k) != 0 && ts[k] < t_max {
                         t_max = ts[k];
-                        best = Some(PreliminaryHit {
-                            t: ts[k],
-                            geom: pack.geom[first + k],
-                            prim: 0,
-                            u: us[k],
-                            v: vs[k],
-                        });
+                        best = Some(lane_hit(k));
                     }
                 }
             }
