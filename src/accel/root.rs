@@ -290,9 +290,9 @@ impl RootShapes {
                     best = Some(lane_hit(k));
                     continue;
                 }
-                for k in 0..L::N {
-                    if mask & (1 << k) != 0 && ts[k] < t_max {
-                        t_max = ts[k];
+                for (k, &t) in ts.iter().enumerate().take(L::N) {
+                    if mask & (1 << k) != 0 && t < t_max {
+                        t_max = t;
                         best = Some(lane_hit(k));
                     }
                 }
