@@ -111,7 +111,7 @@ impl<L: Lanes> SplatRay<L> {
     }
 }
 
-/// A root cuboid's (or another shape's) test, out of line.
+/// A root cuboid's (or another shape's) test below `t_max`.
 fn intersect(g: &Geometry, ray: &Ray, t_max: f32) -> Option<PrimHit> {
     g.intersect(0, &Ray { t_max, ..*ray })
 }
