@@ -202,24 +202,12 @@ impl RootShapes {
         let mut t_max = best.map_or(ray.t_max, |h| h.t);
         if let Some((geom, h)) = self.spheres.closest(ray, t_max) {
             t_max = h.t;
-            best = Some(PreliminaryHit {
-                t: h.t,
-                geom,
-                prim: 0,
-                u: h.u,
-                v: h.v,
-            });
+            best = Some(h.of_shape(geom));
         }
         for (geom, g) in &self.others {
             if let Some(h) = intersect(g, ray, t_max) {
                 t_max = h.t;
-                best = Some(PreliminaryHit {
-                    t: h.t,
-                    geom: *geom,
-                    prim: 0,
-                    u: h.u,
-                    v: h.v,
-                });
+                best = Some(h.of_shape(*geom));
             }
         }
         best

@@ -111,8 +111,10 @@ impl Hasher {
     /// The colours' r, g, b in turn, as `floats` hashes them, a block at a
     /// time: `Rgb` has a fourth, padding lane that is not hashed.
     fn colours(&mut self, values: &[Rgb]) {
+        let mut rgb = Vec::with_capacity(3 * 1024.min(values.len()));
         for block in values.chunks(1024) {
-            let rgb: Vec<f32> = block.iter().flat_map(|c| c.to_array()).collect();
+            rgb.clear();
+            rgb.extend(block.iter().flat_map(|c| c.to_array()));
             self.floats(&rgb);
         }
     }

@@ -77,6 +77,21 @@ pub struct PrimHit {
     pub v: f32,
 }
 
+impl PrimHit {
+    /// The hit as the preliminary hit of scene shape `geom`, a shape of
+    /// one primitive (a sphere, quad, cuboid or plane).
+    #[inline(always)]
+    pub fn of_shape(self, geom: u32) -> PreliminaryHit {
+        PreliminaryHit {
+            t: self.t,
+            geom,
+            prim: 0,
+            u: self.u,
+            v: self.v,
+        }
+    }
+}
+
 /// A point on a surface as shading needs it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfacePoint {

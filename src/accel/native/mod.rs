@@ -166,26 +166,19 @@ impl<L: Leaves> NativeBackend<L> {
     /// The closest hit of the analytic tree below `ray.t_max`.
     #[inline(always)]
     fn closest_analytic(&self, tr: &TravRay, ray: &Ray) -> Option<PreliminaryHit> {
-        let (t, (geom, u, v)) =
-            self.analytic_bvh
-                .intersect_leaves_prepared(tr, ray, |first, count, r| {
-                    let mut r = *r;
-                    let mut best = None;
-                    for (geom, g) in self.analytic_of(first, count) {
-                        if let Some(h) = g.intersect(0, &r) {
-                            r.t_max = h.t;
-                            best = Some((h.t, (*geom, h.u, h.v)));
-                        }
+        self.analytic_bvh
+            .intersect_leaves_prepared(tr, ray, |first, count, r| {
+                let mut r = *r;
+                let mut best = None;
+                for (geom, g) in self.analytic_of(first, count) {
+                    if let Some(h) = g.intersect(0, &r) {
+                        r.t_max = h.t;
+                        best = Some((h.t, h.of_shape(*geom)));
                     }
-                    best
-                })?;
-        Some(PreliminaryHit {
-            t,
-            geom,
-            prim: 0,
-            u,
-            v,
-        })
+                }
+                best
+            })
+            .map(|(_, hit)| hit)
     }
 }
 
