@@ -10,7 +10,8 @@ sampler, other seeds): its error converges to its own image, and the two
 agree to within the references' noise (printed as "references apart").
 Times are each render alone, median over seeds: luz's from its summary line
 (loading excluded), Mitsuba's from the render call with its kernels compiled
-in a warm-up render at the same spp. `relMSE × s` is the error at equal time up to a constant while
+in a warm-up render at the same spp. The renderers take turns seed by seed,
+so that a change in the machine's load falls on all of them alike. `relMSE × s` is the error at equal time up to a constant while
 relMSE falls as 1/spp: the lower, the better the sampler spends a second.
 """
 
@@ -116,19 +117,37 @@ def main():
     print(f"{args.scene}, {args.resolution}x{args.resolution}, {args.threads} threads, luz {args.backend}, "
           f"Mitsuba {args.variant}; mean relMSE over seeds 1-{args.seeds} (median s per render)")
     print(f"references apart: relMSE {rel_mse(references['Mitsuba'], references['luz']):.3g}")
+    # Round robin: each seed is rendered by every renderer in turn, so that a
+    # change in the machine's load falls on all of them alike.
+    errors, seconds = {}, {}
+    for spp in spps:
+        for _, renderer in renderers:
+            renderer.prepare(spp)
+        for seed in range(1, args.seeds + 1):
+            for name, renderer in renderers:
+                image, s = renderer.render(spp, seed)
+                errors.setdefault((name, spp), []).append(rel_mse(image, references[name.split()[0]]))
+                seconds.setdefault((name, spp), []).append(s)
     print("| sampler | " + " | ".join(f"{s} spp" for s in spps) + " | relMSE × s at " + f"{spps[-1]} spp |")
     print("|---" * (len(spps) + 2) + "|")
-    for name, renderer in renderers:
-        ref = references[name.split()[0]]
+    mean = {key: statistics.mean(e) for key, e in errors.items()}
+    median = {key: statistics.median(s) for key, s in seconds.items()}
+    for name, _ in renderers:
+        cells = [f"{mean[name, spp]:.3g} ({median[name, spp]:.3f} s)" for spp in spps]
+        last = (name, spps[-1])
+        print(f"| {name} | " + " | ".join(cells) + f" | {mean[last] * median[last]:.3g} |")
+    print()
+    print("luz sobol's error at equal time against each Mitsuba sampler: its relMSE ratio times the")
+    print("median of the time ratios of the renders of one seed (their range in brackets)")
+    print("| against | " + " | ".join(f"{s} spp" for s in spps) + " |")
+    print("|---" * (len(spps) + 1) + "|")
+    for name, _ in renderers[2:]:
         cells = []
         for spp in spps:
-            renderer.prepare(spp)
-            runs = [renderer.render(spp, seed) for seed in range(1, args.seeds + 1)]
-            error = statistics.mean(rel_mse(image, ref) for image, _ in runs)
-            seconds = statistics.median(s for _, s in runs)
-            cells.append(f"{error:.3g} ({seconds:.3f} s)")
-        print(f"| {name} | " + " | ".join(cells) + f" | {error * seconds:.3g} |", flush=True)
-
+            ratios = [a / b for a, b in zip(seconds["luz sobol", spp], seconds[name, spp])]
+            error = mean["luz sobol", spp] / mean[name, spp]
+            cells.append(f"{error * statistics.median(ratios):.2f}× ({min(ratios):.2f}–{max(ratios):.2f})")
+        print(f"| {name} | " + " | ".join(cells) + " |")
 
 if __name__ == "__main__":
     main()
