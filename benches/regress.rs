@@ -17,14 +17,18 @@
 //! machine, date and luz commit, and `--note` (what else ran meanwhile).
 //! Under `cargo test` (no `--bench`), it only runs each benchmark once.
 
+mod assets;
 mod backends;
+mod provenance;
 mod renders;
+
+use provenance::{baseline_path, read_json, write_json, Provenance};
 
 use criterion::Criterion;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, ExitCode};
+use std::process::ExitCode;
 use std::time::Duration;
 
 const USAGE: &str = "usage: cargo bench --bench regress -- [--threshold PCT] [--baseline NAME] \
@@ -32,12 +36,9 @@ const USAGE: &str = "usage: cargo bench --bench regress -- [--threshold PCT] [--
 
 #[derive(Debug, Deserialize, Serialize)]
 struct Baseline {
-    machine: String,
-    cpu: String,
+    #[serde(flatten)]
+    provenance: Provenance,
     threads: usize,
-    date: String,
-    luz_commit: String,
-    note: String,
     /// By criterion id.
     figures: BTreeMap<String, Figure>,
 }
@@ -102,9 +103,7 @@ fn main() -> ExitCode {
             return ExitCode::from(2);
         }
     };
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("benches/baseline")
-        .join(format!("{}.json", args.baseline));
+    let path = baseline_path(&args.baseline);
     let baseline = if args.save {
         None
     } else {
@@ -126,19 +125,12 @@ fn main() -> ExitCode {
     let regressions = report(&figures, baseline.as_ref(), args.threshold);
     if args.save {
         let baseline = Baseline {
-            machine: hostname(),
-            cpu: cpu_model(),
+            provenance: Provenance::here(args.note),
             threads: rayon::current_num_threads(),
-            date: command_output("date", &["-u", "+%Y-%m-%dT%H:%M:%SZ"]),
-            luz_commit: command_output("git", &["describe", "--always", "--dirty", "--abbrev=12"]),
-            note: args.note,
             figures,
         };
-        let json = serde_json::to_string_pretty(&baseline).expect("serialisable");
-        let written = std::fs::create_dir_all(path.parent().expect("in benches/baseline"))
-            .and_then(|()| std::fs::write(&path, json + "\n"));
-        if let Err(e) = written {
-            eprintln!("regress: {}: {e}", path.display());
+        if let Err(e) = write_json(&path, &baseline) {
+            eprintln!("regress: {e}");
             return ExitCode::from(2);
         }
         println!("saved {}", path.display());
@@ -156,12 +148,6 @@ fn main() -> ExitCode {
         );
         ExitCode::FAILURE
     }
-}
-
-/// A JSON file, with its path in any error.
-fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> Result<T, String> {
-    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
 }
 
 /// Runs the benchmarks into a fresh criterion directory and reads back each
@@ -278,32 +264,4 @@ fn report(
         }
     }
     regressions
-}
-
-fn hostname() -> String {
-    std::fs::read_to_string("/etc/hostname")
-        .map(|s| s.trim().to_string())
-        .unwrap_or_else(|_| "unknown".into())
-}
-
-fn cpu_model() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|info| {
-            info.lines()
-                .find_map(|l| l.strip_prefix("model name"))
-                .map(|rest| rest.trim_start_matches([' ', '\t', ':']).to_string())
-        })
-        .unwrap_or_else(|| "unknown".into())
-}
-
-fn command_output(program: &str, args: &[&str]) -> String {
-    Command::new(program)
-        .args(args)
-        .current_dir(env!("CARGO_MANIFEST_DIR"))
-        .output()
-        .ok()
-        .filter(|o| o.status.success())
-        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        .unwrap_or_else(|| "unknown".into())
 }

@@ -22,9 +22,11 @@
 //! fails when one differs. Under `cargo test` (no `--bench`) it renders
 //! levels 0 and 1 at 64×64, 16 spp.
 
+mod assets;
 #[path = "scale/subdivide.rs"]
 mod subdivide;
 
+use assets::assets;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
 use std::time::Instant;
@@ -92,12 +94,6 @@ fn parse_options() -> Result<Options, String> {
 fn number(s: &str, flag: &str) -> Result<u32, String> {
     s.parse()
         .map_err(|_| format!("{flag}: expected a positive integer, found `{s}`"))
-}
-
-fn assets() -> PathBuf {
-    std::env::var_os("LUZ_ASSETS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets"))
 }
 
 /// Writes the meshes of `levels` that are not there yet.

@@ -17,6 +17,7 @@
 //! to its largest extent and standing where it stands, so the ray sets are
 //! alike.
 
+use crate::assets::assets;
 use criterion::measurement::WallTime;
 use criterion::{black_box, BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Quality};
@@ -25,7 +26,7 @@ use luz::math::{spawn_ray, spawn_ray_to, Aabb, Frame, Mat4, PackedVec3, Ray, Vec
 use luz::sampling::{cosine_hemisphere, Rng};
 use luz::scene::Scene;
 use rayon::prelude::*;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -37,12 +38,6 @@ const MESHES: [(&str, &str); 3] = [
 
 /// Where the light of `scenes/bunny.toml` sits: shadow rays aim at it.
 const LIGHT: Vec3 = Vec3::new(0.0, 1.98, 0.0);
-
-fn assets() -> PathBuf {
-    std::env::var_os("LUZ_ASSETS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/assets"))
-}
 
 /// One mesh in the bunny's box, with its ray sets.
 struct Case {

@@ -1,0 +1,266 @@
+//! Instructions per sample as a regression figure. Callgrind's counts do
+//! not depend on the machine's load, so on a shared machine they show a
+//! change of 1% where wall times move by ±25%. Each peer scene is counted
+//! with both backends by `tools/instructions_per_sample.sh` (64×64, one
+//! thread, a 48-spp render minus a 16-spp one, so that loading is left
+//! out), compared with `benches/baseline/instructions.json`, and the run
+//! exits with status 1 when a count rose by more than the threshold.
+//!
+//! ```text
+//! cargo bench --bench instructions [-- [--threshold PCT] [--save-baseline [--note TEXT]]]
+//! ```
+//!
+//! `--threshold`: the allowed rise in percent (default 2). Needs valgrind
+//! (`apt-get install valgrind`); about five minutes on two cores. The bunny
+//! needs the meshes (`$LUZ_ASSETS`, default `../shared/assets`), the Embree
+//! figures a build with Embree: without them those figures are skipped and
+//! named. The counts depend on the compiler and on the instruction sets
+//! valgrind lets luz detect (AVX2, never AVX-512), not on the CPU's speed:
+//! the baseline records rustc's version, and a run with another says so.
+//! Under `cargo test` (no `--bench`) it checks that the baseline holds every
+//! figure and that the script's output is read as it should be.
+
+mod assets;
+mod provenance;
+
+use provenance::{baseline_path, command_output, read_json, write_json, Provenance};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::process::{Command, ExitCode};
+
+const USAGE: &str =
+    "usage: cargo bench --bench instructions -- [--threshold PCT] [--save-baseline [--note TEXT]]";
+
+const SCENES: [&str; 3] = ["cornell-point", "cornell-area", "bunny"];
+const BACKENDS: [&str; 2] = ["rust", "embree"];
+
+#[derive(Debug, Deserialize, Serialize)]
+struct Baseline {
+    #[serde(flatten)]
+    provenance: Provenance,
+    rustc: String,
+    /// Instructions per sample, by `SCENE/BACKEND`.
+    figures: BTreeMap<String, u64>,
+}
+
+struct Args {
+    threshold: f64,
+    save: bool,
+    note: String,
+}
+
+fn parse_args(args: &[String]) -> Result<Args, String> {
+    let mut parsed = Args {
+        threshold: 2.0,
+        save: false,
+        note: String::new(),
+    };
+    let mut it = args.iter();
+    while let Some(arg) = it.next() {
+        let mut value = || it.next().ok_or(format!("{arg} needs a value"));
+        match arg.as_str() {
+            "--bench" => {}
+            "--threshold" => {
+                let v = value()?;
+                parsed.threshold = v
+                    .parse()
+                    .ok()
+                    .filter(|t: &f64| t.is_finite() && *t >= 0.0)
+                    .ok_or(format!("--threshold: expected a percentage, got `{v}`"))?;
+            }
+            "--note" => parsed.note = value()?.clone(),
+            "--save-baseline" => parsed.save = true,
+            _ => return Err(format!("unknown argument `{arg}`")),
+        }
+    }
+    Ok(parsed)
+}
+
+fn figure_ids() -> impl Iterator<Item = String> {
+    SCENES.iter().flat_map(|scene| {
+        BACKENDS
+            .iter()
+            .map(move |backend| format!("{scene}/{backend}"))
+    })
+}
+
+/// The count in the script's last line, `SCENE BACKEND: N instructions per
+/// sample`.
+fn parse_count(output: &str) -> Option<u64> {
+    output
+        .lines()
+        .last()?
+        .strip_suffix(" instructions per sample")?
+        .rsplit(": ")
+        .next()?
+        .parse()
+        .ok()
+}
+
+/// Why a figure could not be measured here, if it cannot.
+fn unavailable(scene: &str, backend: &str) -> Option<String> {
+    let mesh = assets::assets().join("stanford/bunny/bun_zipper.ply");
+    if scene == "bunny" && !mesh.is_file() {
+        return Some(format!("{} is missing (set LUZ_ASSETS)", mesh.display()));
+    }
+    if backend == "embree" && !luz::accel::compiled_backends().contains(&"embree") {
+        return Some("luz was built without Embree".into());
+    }
+    None
+}
+
+fn count(scene: &str, backend: &str) -> Result<u64, String> {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let output = Command::new(root.join("tools/instructions_per_sample.sh"))
+        .args([
+            &format!("scenes/{scene}.toml"),
+            backend,
+            env!("CARGO_BIN_EXE_luz"),
+        ])
+        .current_dir(root)
+        .output()
+        .map_err(|e| format!("tools/instructions_per_sample.sh: {e}"))?;
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    if !output.status.success() {
+        return Err(format!(
+            "tools/instructions_per_sample.sh {scene} {backend}: {}{}",
+            output.status,
+            String::from_utf8_lossy(&output.stderr)
+        ));
+    }
+    parse_count(&stdout).ok_or(format!(
+        "tools/instructions_per_sample.sh {scene} {backend}: no count in `{}`",
+        stdout.trim()
+    ))
+}
+
+/// Checks, without counting, that the baseline holds every figure and that
+/// the script's line is read.
+fn check() -> Result<(), String> {
+    let path = baseline_path("instructions");
+    let baseline: Baseline = read_json(&path)?;
+    let missing: Vec<String> = figure_ids()
+        .filter(|id| !baseline.figures.contains_key(id))
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "{}: no figure for {}",
+            path.display(),
+            missing.join(", ")
+        ));
+    }
+    let line = "scenes/bunny.toml embree: 4770 instructions per sample";
+    if parse_count(line) != Some(4770) || parse_count("instructions per sample").is_some() {
+        return Err(format!("the script's line `{line}` is misread"));
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if !args.iter().any(|a| a == "--bench") {
+        return match check() {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("instructions: {e}");
+                ExitCode::FAILURE
+            }
+        };
+    }
+    let args = match parse_args(&args) {
+        Ok(args) => args,
+        Err(e) => {
+            eprintln!("instructions: {e}\n{USAGE}");
+            return ExitCode::from(2);
+        }
+    };
+    match run(&args) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("instructions: {e}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(args: &Args) -> Result<ExitCode, String> {
+    let path = baseline_path("instructions");
+    let rustc = command_output("rustc", &["--version"]);
+    let baseline = if args.save {
+        None
+    } else {
+        let b: Baseline =
+            read_json(&path).map_err(|e| format!("{e}\n(record one with --save-baseline)"))?;
+        if b.rustc != rustc {
+            println!(
+                "the baseline was counted with {}, this run with {rustc}",
+                b.rustc
+            );
+        }
+        Some(b)
+    };
+    if Command::new("valgrind").arg("--version").output().is_err() {
+        return Err("valgrind is missing (apt-get install valgrind)".into());
+    }
+    let mut figures = BTreeMap::new();
+    let mut regressions = Vec::new();
+    println!(
+        "{:<22} {:>12} {:>10} {:>12}",
+        "figure", "instr/sample", "baseline", "ratio"
+    );
+    for id in figure_ids() {
+        let (scene, backend) = id.split_once('/').expect("SCENE/BACKEND");
+        if let Some(why) = unavailable(scene, backend) {
+            println!("{id:<22} skipped: {why}");
+            continue;
+        }
+        let now = count(scene, backend)?;
+        figures.insert(id.clone(), now);
+        let then = baseline.as_ref().and_then(|b| b.figures.get(&id));
+        let (then_text, ratio_text) = match then {
+            None => (String::new(), String::new()),
+            Some(&then) => {
+                let ratio = now as f64 / then as f64;
+                let mut text = format!("{ratio:.3}");
+                if ratio > 1.0 + args.threshold / 100.0 {
+                    regressions.push(format!("{id}: {now} against {then}"));
+                    text += " MORE";
+                }
+                (then.to_string(), text)
+            }
+        };
+        println!("{id:<22} {now:>12} {then_text:>10} {ratio_text:>12}");
+    }
+    if args.save {
+        let skipped: Vec<String> = figure_ids()
+            .filter(|id| !figures.contains_key(id))
+            .collect();
+        if !skipped.is_empty() {
+            return Err(format!(
+                "a baseline needs every figure; skipped: {}",
+                skipped.join(", ")
+            ));
+        }
+        let baseline = Baseline {
+            provenance: Provenance::here(args.note.clone()),
+            rustc,
+            figures,
+        };
+        write_json(&path, &baseline)?;
+        println!("saved {}", path.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    if regressions.is_empty() {
+        println!("no count rose by more than {}%", args.threshold);
+        Ok(ExitCode::SUCCESS)
+    } else {
+        println!(
+            "{} counts rose by more than {}%:\n  {}",
+            regressions.len(),
+            args.threshold,
+            regressions.join("\n  ")
+        );
+        Ok(ExitCode::FAILURE)
+    }
+}
