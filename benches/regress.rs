@@ -15,7 +15,8 @@
 //! `--baseline`: the baseline's name (default `default`); `--save-baseline`:
 //! write this run's figures as the baseline instead of comparing, with the
 //! machine, date and luz commit, and `--note` (what else ran meanwhile).
-//! Under `cargo test` (no `--bench`), it only runs each benchmark once.
+//! Under `cargo test` (no `--bench`), it only reads the default baseline and
+//! runs each benchmark once.
 
 mod assets;
 mod backends;
@@ -90,7 +91,12 @@ fn parse_args(args: &[String]) -> Result<Args, String> {
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if !args.iter().any(|a| a == "--bench") {
-        // `cargo test --all-targets`: check the benchmarks run, time nothing.
+        // `cargo test --all-targets`: check the benchmarks run and the
+        // baseline reads, time nothing.
+        if let Err(e) = read_json::<Baseline>(&baseline_path("default")) {
+            eprintln!("regress: {e}");
+            return ExitCode::FAILURE;
+        }
         let mut c = Criterion::default().configure_from_args();
         backends::backends(&mut c);
         renders::renders(&mut c);
