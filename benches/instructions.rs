@@ -7,10 +7,13 @@
 //! exits with status 1 when a count rose by more than the threshold.
 //!
 //! ```text
-//! cargo bench --bench instructions [-- [--threshold PCT] [--save-baseline [--note TEXT]]]
+//! cargo bench --bench instructions [-- [--threshold PCT] [--baseline NAME]
+//!                                       [--save-baseline [--note TEXT]]]
 //! ```
 //!
-//! `--threshold`: the allowed rise in percent (default 2). Needs valgrind
+//! `--threshold`: the allowed rise in percent (default 2); `--baseline`:
+//! the baseline's name (default `instructions`), so that each compiler can
+//! keep its own. Needs valgrind
 //! (`apt-get install valgrind`); about five minutes on two cores. The bunny
 //! needs the meshes (`$LUZ_ASSETS`, default `../shared/assets`), the Embree
 //! figures a build with Embree: without them those figures are skipped and
@@ -21,16 +24,16 @@
 //! figure and that the script's output is read as it should be.
 
 mod assets;
-mod provenance;
+mod baselines;
 
-use provenance::{baseline_path, command_output, read_json, write_json, Provenance};
+use baselines::{baseline_path, command_output, read_json, write_json, Args, Provenance};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::{Command, ExitCode};
 
-const USAGE: &str =
-    "usage: cargo bench --bench instructions -- [--threshold PCT] [--save-baseline [--note TEXT]]";
+const USAGE: &str = "usage: cargo bench --bench instructions -- [--threshold PCT] \
+                     [--baseline NAME] [--save-baseline [--note TEXT]]";
 
 const SCENES: [&str; 3] = ["cornell-point", "cornell-area", "bunny"];
 const BACKENDS: [&str; 2] = ["rust", "embree"];
@@ -42,39 +45,6 @@ struct Baseline {
     rustc: String,
     /// Instructions per sample, by `SCENE/BACKEND`.
     figures: BTreeMap<String, u64>,
-}
-
-struct Args {
-    threshold: f64,
-    save: bool,
-    note: String,
-}
-
-fn parse_args(args: &[String]) -> Result<Args, String> {
-    let mut parsed = Args {
-        threshold: 2.0,
-        save: false,
-        note: String::new(),
-    };
-    let mut it = args.iter();
-    while let Some(arg) = it.next() {
-        let mut value = || it.next().ok_or(format!("{arg} needs a value"));
-        match arg.as_str() {
-            "--bench" => {}
-            "--threshold" => {
-                let v = value()?;
-                parsed.threshold = v
-                    .parse()
-                    .ok()
-                    .filter(|t: &f64| t.is_finite() && *t >= 0.0)
-                    .ok_or(format!("--threshold: expected a percentage, got `{v}`"))?;
-            }
-            "--note" => parsed.note = value()?.clone(),
-            "--save-baseline" => parsed.save = true,
-            _ => return Err(format!("unknown argument `{arg}`")),
-        }
-    }
-    Ok(parsed)
 }
 
 fn figure_ids() -> impl Iterator<Item = String> {
@@ -168,7 +138,7 @@ fn main() -> ExitCode {
             }
         };
     }
-    let args = match parse_args(&args) {
+    let args = match Args::parse(&args, 2.0, "instructions") {
         Ok(args) => args,
         Err(e) => {
             eprintln!("instructions: {e}\n{USAGE}");
@@ -185,7 +155,7 @@ fn main() -> ExitCode {
 }
 
 fn run(args: &Args) -> Result<ExitCode, String> {
-    let path = baseline_path("instructions");
+    let path = baseline_path(&args.baseline);
     let rustc = command_output("rustc", &["--version"]);
     let baseline = if args.save {
         None

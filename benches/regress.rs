@@ -20,10 +20,10 @@
 
 mod assets;
 mod backends;
-mod provenance;
+mod baselines;
 mod renders;
 
-use provenance::{baseline_path, read_json, write_json, Provenance};
+use baselines::{baseline_path, read_json, write_json, Args, Provenance};
 
 use criterion::Criterion;
 use serde::{Deserialize, Serialize};
@@ -52,42 +52,6 @@ struct Figure {
     per_s: f64,
 }
 
-struct Args {
-    threshold: f64,
-    baseline: String,
-    save: bool,
-    note: String,
-}
-
-fn parse_args(args: &[String]) -> Result<Args, String> {
-    let mut parsed = Args {
-        threshold: 10.0,
-        baseline: "default".into(),
-        save: false,
-        note: String::new(),
-    };
-    let mut it = args.iter();
-    while let Some(arg) = it.next() {
-        let mut value = || it.next().ok_or(format!("{arg} needs a value"));
-        match arg.as_str() {
-            "--bench" => {}
-            "--threshold" => {
-                let v = value()?;
-                parsed.threshold = v
-                    .parse()
-                    .ok()
-                    .filter(|t: &f64| t.is_finite() && *t >= 0.0)
-                    .ok_or(format!("--threshold: expected a percentage, got `{v}`"))?;
-            }
-            "--baseline" => parsed.baseline = value()?.clone(),
-            "--note" => parsed.note = value()?.clone(),
-            "--save-baseline" => parsed.save = true,
-            _ => return Err(format!("unknown argument `{arg}`")),
-        }
-    }
-    Ok(parsed)
-}
-
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if !args.iter().any(|a| a == "--bench") {
@@ -102,7 +66,7 @@ fn main() -> ExitCode {
         renders::renders(&mut c);
         return ExitCode::SUCCESS;
     }
-    let args = match parse_args(&args) {
+    let args = match Args::parse(&args, 10.0, "default") {
         Ok(args) => args,
         Err(e) => {
             eprintln!("regress: {e}\n{USAGE}");

@@ -1,9 +1,57 @@
-//! Where and from what a baseline's figures were measured, and the JSON
-//! files baselines live in; shared by the benchmarks that keep baselines.
+//! What the benches that keep a baseline share: the baseline's file, where
+//! and from what its figures were measured, and the arguments that pick,
+//! compare with or refresh it.
 
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::process::Command;
+
+/// `[--threshold PCT] [--baseline NAME] [--save-baseline [--note TEXT]]`,
+/// and the `--bench` that cargo adds.
+pub struct Args {
+    /// The change allowed, in percent.
+    pub threshold: f64,
+    /// The baseline's name: `benches/baseline/NAME.json`.
+    pub baseline: String,
+    /// Write this run's figures as the baseline instead of comparing.
+    pub save: bool,
+    pub note: String,
+}
+
+impl Args {
+    pub fn parse(
+        args: &[String],
+        default_threshold: f64,
+        default_baseline: &str,
+    ) -> Result<Self, String> {
+        let mut parsed = Self {
+            threshold: default_threshold,
+            baseline: default_baseline.into(),
+            save: false,
+            note: String::new(),
+        };
+        let mut it = args.iter();
+        while let Some(arg) = it.next() {
+            let mut value = || it.next().ok_or(format!("{arg} needs a value"));
+            match arg.as_str() {
+                "--bench" => {}
+                "--threshold" => {
+                    let v = value()?;
+                    parsed.threshold = v
+                        .parse()
+                        .ok()
+                        .filter(|t: &f64| t.is_finite() && *t >= 0.0)
+                        .ok_or(format!("--threshold: expected a percentage, got `{v}`"))?;
+                }
+                "--baseline" => parsed.baseline = value()?.clone(),
+                "--note" => parsed.note = value()?.clone(),
+                "--save-baseline" => parsed.save = true,
+                _ => return Err(format!("unknown argument `{arg}`")),
+            }
+        }
+        Ok(parsed)
+    }
+}
 
 /// The machine, the date and the commit behind a baseline's figures.
 #[derive(Debug, Deserialize, Serialize)]
