@@ -3,7 +3,7 @@
 //! change of 1% where wall times move by ±25%. Each peer scene is counted
 //! with both backends by `tools/instructions_per_sample.sh` (64×64, one
 //! thread, a 48-spp render minus a 16-spp one, so that loading is left
-//! out), compared with `benches/baseline/instructions.json`, and the run
+//! out), compared with `benches/baseline/instructions-default.json`, and the run
 //! exits with status 1 when a count rose by more than the threshold.
 //!
 //! ```text
@@ -12,16 +12,17 @@
 //! ```
 //!
 //! `--threshold`: the allowed rise in percent (default 2); `--baseline`:
-//! the baseline's name (default `instructions`), so that each compiler can
-//! keep its own. Needs valgrind
+//! the baseline's name, `benches/baseline/instructions-NAME.json` (default
+//! `default`), so that each compiler can keep its own. A figure the baseline
+//! lacks fails the check too. Needs valgrind
 //! (`apt-get install valgrind`); about five minutes on two cores. The bunny
 //! needs the meshes (`$LUZ_ASSETS`, default `../shared/assets`), the Embree
 //! figures a build with Embree: without them those figures are skipped and
 //! named. The counts depend on the compiler and on the instruction sets
 //! valgrind lets luz detect (AVX2, never AVX-512), not on the CPU's speed:
 //! the baseline records rustc's version, and a run with another says so.
-//! Under `cargo test` (no `--bench`) it checks that the baseline holds every
-//! figure and that the script's output is read as it should be.
+//! Under `cargo test` (no `--bench`) it checks that the default baseline
+//! holds every figure and that the script's count line is read.
 
 mod assets;
 mod baselines;
@@ -89,26 +90,37 @@ fn count(scene: &str, backend: &str) -> Result<u64, String> {
             env!("CARGO_BIN_EXE_luz"),
         ])
         .current_dir(root)
+        // Extra render arguments would change what is counted.
+        .env_remove("LUZ_EXTRA_ARGS")
         .output()
         .map_err(|e| format!("tools/instructions_per_sample.sh: {e}"))?;
     let stdout = String::from_utf8_lossy(&output.stdout);
     if !output.status.success() {
         return Err(format!(
-            "tools/instructions_per_sample.sh {scene} {backend}: {}{}",
+            "tools/instructions_per_sample.sh {scene} {backend}: {}\n{}",
             output.status,
             String::from_utf8_lossy(&output.stderr)
         ));
     }
-    parse_count(&stdout).ok_or(format!(
-        "tools/instructions_per_sample.sh {scene} {backend}: no count in `{}`",
-        stdout.trim()
-    ))
+    match parse_count(&stdout) {
+        Some(0) | None => Err(format!(
+            "tools/instructions_per_sample.sh {scene} {backend}: no count in `{}`",
+            stdout.trim()
+        )),
+        Some(count) => Ok(count),
+    }
 }
 
-/// Checks, without counting, that the baseline holds every figure and that
-/// the script's line is read.
+/// The file of baseline `name`, apart from the regress bench's baselines.
+fn instructions_baseline(name: &str) -> std::path::PathBuf {
+    baseline_path(&format!("instructions-{name}"))
+}
+
+/// Checks, without counting, that the default baseline holds every figure,
+/// that the script still prints its count in the line `parse_count` reads,
+/// and that such a line is read.
 fn check() -> Result<(), String> {
-    let path = baseline_path("instructions");
+    let path = instructions_baseline("default");
     let baseline: Baseline = read_json(&path)?;
     let missing: Vec<String> = figure_ids()
         .filter(|id| !baseline.figures.contains_key(id))
@@ -118,6 +130,19 @@ fn check() -> Result<(), String> {
             "{}: no figure for {}",
             path.display(),
             missing.join(", ")
+        ));
+    }
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tools/instructions_per_sample.sh");
+    let text =
+        std::fs::read_to_string(&script).map_err(|e| format!("{}: {e}", script.display()))?;
+    let last_echo = text
+        .lines()
+        .rfind(|l| l.starts_with("echo "))
+        .unwrap_or_default();
+    if !last_echo.ends_with(" instructions per sample\"") {
+        return Err(format!(
+            "{}: its last line no longer prints `N instructions per sample`",
+            script.display()
         ));
     }
     let line = "scenes/bunny.toml embree: 4770 instructions per sample";
@@ -138,7 +163,7 @@ fn main() -> ExitCode {
             }
         };
     }
-    let args = match Args::parse(&args, 2.0, "instructions") {
+    let args = match Args::parse(&args, 2.0, "default") {
         Ok(args) => args,
         Err(e) => {
             eprintln!("instructions: {e}\n{USAGE}");
@@ -155,7 +180,7 @@ fn main() -> ExitCode {
 }
 
 fn run(args: &Args) -> Result<ExitCode, String> {
-    let path = baseline_path(&args.baseline);
+    let path = instructions_baseline(&args.baseline);
     let rustc = command_output("rustc", &["--version"]);
     let baseline = if args.save {
         None
@@ -187,15 +212,21 @@ fn run(args: &Args) -> Result<ExitCode, String> {
         }
         let now = count(scene, backend)?;
         figures.insert(id.clone(), now);
-        let then = baseline.as_ref().and_then(|b| b.figures.get(&id));
-        let (then_text, ratio_text) = match then {
+        let (then_text, ratio_text) = match baseline.as_ref().map(|b| b.figures.get(&id)) {
             None => (String::new(), String::new()),
-            Some(&then) => {
+            Some(None) => {
+                regressions.push(format!("{id}: not in the baseline"));
+                ("none".into(), String::new())
+            }
+            Some(Some(&then)) => {
                 let ratio = now as f64 / then as f64;
                 let mut text = format!("{ratio:.3}");
                 if ratio > 1.0 + args.threshold / 100.0 {
                     regressions.push(format!("{id}: {now} against {then}"));
                     text += " MORE";
+                } else if ratio < 1.0 - args.threshold / 100.0 {
+                    // Not a failure, but the baseline no longer guards this figure.
+                    text += " fewer: refresh the baseline";
                 }
                 (then.to_string(), text)
             }
@@ -226,7 +257,7 @@ fn run(args: &Args) -> Result<ExitCode, String> {
         Ok(ExitCode::SUCCESS)
     } else {
         println!(
-            "{} counts rose by more than {}%:\n  {}",
+            "{} counts rose by more than {}% or have no baseline:\n  {}",
             regressions.len(),
             args.threshold,
             regressions.join("\n  ")

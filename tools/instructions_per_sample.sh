@@ -25,10 +25,21 @@ read -r -a extra <<<"${LUZ_EXTRA_ARGS:-}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 instructions() {
-    valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.out" "$luz" render "$scene" \
+    if ! valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.out" "$luz" render "$scene" \
         --backend "$backend" --bvh-quality medium --embree-quality medium --threads 1 --spp "$1" --resolution 64x64 --quiet \
-        --checkpoint-every off "${extra[@]}" -o "$work/image.exr" 2>&1 |
-        sed -n 's/.*Collected : \([0-9]*\).*/\1/p'
+        --checkpoint-every off "${extra[@]}" -o "$work/image.exr" >"$work/log" 2>&1; then
+        cat "$work/log" >&2
+        echo "$0: the $1-spp render of $scene failed under callgrind (its output above)" >&2
+        return 1
+    fi
+    local count
+    count=$(sed -n 's/.*Collected : \([0-9]*\).*/\1/p' "$work/log")
+    if [ -z "$count" ]; then
+        cat "$work/log" >&2
+        echo "$0: no 'Collected :' line from callgrind for the $1-spp render (VALGRIND_OPTS=-q?)" >&2
+        return 1
+    fi
+    echo "$count"
 }
 low=$(instructions 16)
 high=$(instructions 48)

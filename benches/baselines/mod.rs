@@ -15,6 +15,7 @@ pub struct Args {
     pub baseline: String,
     /// Write this run's figures as the baseline instead of comparing.
     pub save: bool,
+    /// What else ran meanwhile, kept with a saved baseline.
     pub note: String,
 }
 
