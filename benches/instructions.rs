@@ -3,8 +3,9 @@
 //! change of 1% where wall times move by ±25%. Each peer scene is counted
 //! with both backends by `tools/instructions_per_sample.sh` (64×64, one
 //! thread, a 48-spp render minus a 16-spp one, so that loading is left
-//! out), compared with `benches/baseline/instructions-default.json`, and the run
-//! exits with status 1 when a count rose by more than the threshold.
+//! out), compared with `benches/baseline/instructions-default.json`, and
+//! the run exits with status 1 when a count rose by more than the
+//! threshold.
 //!
 //! ```text
 //! cargo bench --bench instructions [-- [--threshold PCT] [--baseline NAME]
@@ -14,8 +15,8 @@
 //! `--threshold`: the allowed rise in percent (default 2); `--baseline`:
 //! the baseline's name, `benches/baseline/instructions-NAME.json` (default
 //! `default`), so that each compiler can keep its own. A figure the baseline
-//! lacks fails the check too. Needs valgrind
-//! (`apt-get install valgrind`); about five minutes on two cores. The bunny
+//! lacks fails the check too. Needs valgrind (`apt-get install valgrind`);
+//! about five minutes on two cores. The bunny
 //! needs the meshes (`$LUZ_ASSETS`, default `../shared/assets`), the Embree
 //! figures a build with Embree: without them those figures are skipped and
 //! named. The counts depend on the compiler and on the instruction sets
@@ -179,6 +180,38 @@ fn main() -> ExitCode {
     }
 }
 
+/// A count against its baseline's (`None`: no baseline; `Some(None)`: the
+/// baseline lacks it): the baseline and ratio columns, and why the figure
+/// fails the check, if it does.
+fn compare(
+    now: u64,
+    then: Option<Option<u64>>,
+    threshold: f64,
+) -> (String, String, Option<String>) {
+    let then = match then {
+        None => return (String::new(), String::new(), None),
+        Some(None) => {
+            return (
+                "none".into(),
+                String::new(),
+                Some("not in the baseline".into()),
+            )
+        }
+        Some(Some(then)) => then,
+    };
+    let ratio = now as f64 / then as f64;
+    let mut text = format!("{ratio:.3}");
+    let mut regression = None;
+    if ratio > 1.0 + threshold / 100.0 {
+        regression = Some(format!("{now} against {then}"));
+        text += " MORE";
+    } else if ratio < 1.0 - threshold / 100.0 {
+        // Not a failure, but the baseline no longer guards this figure.
+        text += " fewer: refresh the baseline";
+    }
+    (then.to_string(), text, regression)
+}
+
 fn run(args: &Args) -> Result<ExitCode, String> {
     let path = instructions_baseline(&args.baseline);
     let rustc = command_output("rustc", &["--version"]);
@@ -212,26 +245,10 @@ fn run(args: &Args) -> Result<ExitCode, String> {
         }
         let now = count(scene, backend)?;
         figures.insert(id.clone(), now);
-        let (then_text, ratio_text) = match baseline.as_ref().map(|b| b.figures.get(&id)) {
-            None => (String::new(), String::new()),
-            Some(None) => {
-                regressions.push(format!("{id}: not in the baseline"));
-                ("none".into(), String::new())
-            }
-            Some(Some(&then)) => {
-                let ratio = now as f64 / then as f64;
-                let mut text = format!("{ratio:.3}");
-                if ratio > 1.0 + args.threshold / 100.0 {
-                    regressions.push(format!("{id}: {now} against {then}"));
-                    text += " MORE";
-                } else if ratio < 1.0 - args.threshold / 100.0 {
-                    // Not a failure, but the baseline no longer guards this figure.
-                    text += " fewer: refresh the baseline";
-                }
-                (then.to_string(), text)
-            }
-        };
+        let then = baseline.as_ref().map(|b| b.figures.get(&id).copied());
+        let (then_text, ratio_text, regression) = compare(now, then, args.threshold);
         println!("{id:<22} {now:>12} {then_text:>10} {ratio_text:>12}");
+        regressions.extend(regression.map(|why| format!("{id}: {why}")));
     }
     if args.save {
         let skipped: Vec<String> = figure_ids()

@@ -24,20 +24,24 @@ export LUZ_ASSETS="${LUZ_ASSETS:-$(dirname "$0")/../../shared/assets}"
 read -r -a extra <<<"${LUZ_EXTRA_ARGS:-}"
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
+# Says why the render of $1 spp gave no count, after callgrind's output.
+no_count() {
+    cat "$work/log" >&2
+    echo "$0: $2 (the $1-spp render of $scene; callgrind's output above)" >&2
+    return 1
+}
 instructions() {
     if ! valgrind --tool=callgrind --callgrind-out-file="$work/callgrind.out" "$luz" render "$scene" \
         --backend "$backend" --bvh-quality medium --embree-quality medium --threads 1 --spp "$1" --resolution 64x64 --quiet \
         --checkpoint-every off "${extra[@]}" -o "$work/image.exr" >"$work/log" 2>&1; then
-        cat "$work/log" >&2
-        echo "$0: the $1-spp render of $scene failed under callgrind (its output above)" >&2
-        return 1
+        no_count "$1" "the render failed under callgrind"
+        return
     fi
     local count
     count=$(sed -n 's/.*Collected : \([0-9]*\).*/\1/p' "$work/log")
     if [ -z "$count" ]; then
-        cat "$work/log" >&2
-        echo "$0: no 'Collected :' line from callgrind for the $1-spp render (VALGRIND_OPTS=-q?)" >&2
-        return 1
+        no_count "$1" "callgrind printed no 'Collected :' line (VALGRIND_OPTS=-q?)"
+        return
     fi
     echo "$count"
 }

@@ -11,7 +11,8 @@ use std::process::Command;
 pub struct Args {
     /// The change allowed, in percent.
     pub threshold: f64,
-    /// The baseline's name: `benches/baseline/NAME.json`.
+    /// The baseline's name; each bench maps it to its file under
+    /// `benches/baseline/`.
     pub baseline: String,
     /// Write this run's figures as the baseline instead of comparing.
     pub save: bool,
