@@ -8,9 +8,9 @@ mod common;
 
 use common::embree_compiled;
 
-use luz::accel::{Accel, BackendKind, BuildOptions};
+use luz::accel::{BackendKind, BuildOptions};
 use luz::image::metrics;
-use luz::render::{render_with, RenderOptions};
+use luz::render::{build_accel, render_with, RenderOptions};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -53,7 +53,7 @@ fn every_scene_agrees_across_backends() {
         let scene = Arc::new(scene);
         let options = RenderOptions::from_scene(&scene);
         let render = |kind| {
-            let accel = Accel::build(&scene, kind, &BuildOptions::default()).unwrap();
+            let accel = build_accel(&scene, kind, &BuildOptions::default()).unwrap();
             render_with(&scene, &accel, &options, &()).0
         };
         let native = render(BackendKind::Rust);

@@ -3,8 +3,8 @@
 //! Stochastic checks state their bound in standard errors of the mean,
 //! estimated from the film's own per-pixel variance.
 
-use luz::accel::{Accel, BackendKind, BuildOptions};
-use luz::render::{render_with, Film, RenderOptions};
+use luz::accel::{BackendKind, BuildOptions};
+use luz::render::{build_accel, render_with, Film, RenderOptions};
 use luz::scene::{load_str, Scene};
 use std::f32::consts::PI;
 use std::path::Path;
@@ -15,7 +15,7 @@ fn scene(text: &str) -> Arc<Scene> {
 }
 
 fn render_scene(scene: &Arc<Scene>, backend: BackendKind) -> Film {
-    let accel = Accel::build(scene, backend, &BuildOptions::default()).expect("backend");
+    let accel = build_accel(scene, backend, &BuildOptions::default()).expect("backend");
     render_with(scene, &accel, &RenderOptions::from_scene(scene), &()).0
 }
 

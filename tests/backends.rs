@@ -3,11 +3,12 @@
 
 mod common;
 
-use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Quality};
+use luz::accel::{Backend, BackendKind, BuildOptions, Quality};
 use luz::geometry::Geometry;
 use luz::geometry::PreliminaryHit;
 use luz::geometry::{Cuboid, Mesh, Plane, Quad, Sphere};
 use luz::math::{Ray, Vec3};
+use luz::render::build_accel;
 use luz::sampling::{uniform_sphere, Rng};
 use luz::scene::{Material, RenderSettings, Scene, Shape};
 use std::sync::Arc;
@@ -49,7 +50,7 @@ fn random_scene(rng: &mut Rng, scale: f32) -> Arc<Scene> {
             positions.push((a + 0.15 * scale * uniform_sphere(rng.next_2d())).into());
             indices.push([3 * i, 3 * i + 1, 3 * i + 2]);
         }
-        shapes.push(Geometry::Mesh(Mesh {
+        shapes.push(Geometry::from(Mesh {
             positions,
             indices,
             uvs: None,
@@ -115,7 +116,7 @@ fn native_backend_matches_brute_force_on_1e5_rays_at_three_scales_with_both_leaf
             bvh_quality,
             ..BuildOptions::default()
         };
-        let native = Accel::build(&scene, BackendKind::Rust, &options).unwrap();
+        let native = build_accel(&scene, BackendKind::Rust, &options).unwrap();
         assert_eq!(native.name(), "rust");
         let (mut hits, mut occluded) = (0, 0);
         for _ in 0..100_000 {
@@ -194,13 +195,13 @@ fn embree_matches_native_on_1e5_rays_at_four_scales() {
     let mut rng = Rng::new(12, 0);
     for (scale, quality, robust) in settings {
         let scene = random_scene(&mut rng, scale);
-        let native = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        let native = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
         let options = BuildOptions {
             embree_quality: quality,
             embree_robust: robust,
             ..BuildOptions::default()
         };
-        let embree = Accel::build(&scene, BackendKind::Embree, &options).unwrap();
+        let embree = build_accel(&scene, BackendKind::Embree, &options).unwrap();
         assert_eq!(embree.name(), "embree");
         let n = 100_000;
         let (mut hits, mut triangle_hits, mut differ, mut occ_differ) = (0, 0, 0, 0);
@@ -290,8 +291,8 @@ fn embree_handles_planes_only_and_empty_scenes() {
             None,
             RenderSettings::default(),
         ));
-        let native = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
-        let embree = Accel::build(&scene, BackendKind::Embree, &BuildOptions::default()).unwrap();
+        let native = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        let embree = build_accel(&scene, BackendKind::Embree, &BuildOptions::default()).unwrap();
         for _ in 0..1000 {
             let ray = random_ray(&mut rng, 1.0);
             assert_eq!(native.intersect(&ray), embree.intersect(&ray));

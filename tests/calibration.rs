@@ -10,9 +10,9 @@
 //! estimate gives that a false alarm is rarer than once in a million runs
 //! (each check says how far).
 
-use luz::accel::{Accel, BackendKind, BuildOptions};
+use luz::accel::{BackendKind, BuildOptions};
 use luz::image::metrics::RELATIVE_MSE_FLOOR;
-use luz::render::{render_with, Film, RenderOptions, Sampling};
+use luz::render::{build_accel, render_with, Film, RenderOptions, Sampling};
 use luz::sampling::SamplerKind;
 use luz::scene::load_str;
 use std::path::Path;
@@ -48,7 +48,7 @@ const EXPECTED: [f64; 3] = [1.2, 0.6, 0.3];
 
 fn render(sampler: SamplerKind, sampling: Sampling) -> Film {
     let scene = Arc::new(load_str(SCENE, Path::new("calibration.toml")).expect("valid scene"));
-    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let accel = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
     let options = RenderOptions {
         sampler,
         sampling,

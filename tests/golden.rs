@@ -31,9 +31,9 @@
 //! `LUZ_GOLDEN_SCENES=a,b` regenerates only those scenes (a new scene's
 //! first reference), leaving the others as they are.
 
-use luz::accel::{Accel, BackendKind, BuildOptions};
+use luz::accel::{BackendKind, BuildOptions};
 use luz::image::{self, Image};
-use luz::render::{render_with, Film, RenderOptions};
+use luz::render::{build_accel, render_with, Film, RenderOptions};
 use luz::sampling::SamplerKind;
 use luz::scene::Scene;
 use serde::{Deserialize, Serialize};
@@ -117,7 +117,7 @@ fn load_scene(name: &str) -> Option<Scene> {
 
 fn render(scene: &Scene, spp: u32, seed: u64, max_depth: u32, sampler: SamplerKind) -> Film {
     let scene = Arc::new(scene.clone());
-    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let accel = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
     let mut options = RenderOptions::from_scene(&scene);
     options.samples = 0..spp;
     options.seed = seed;

@@ -11,7 +11,7 @@ use common::temp_dir;
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
 use luz::geometry::{Geometry, Mesh};
 use luz::math::{Ray, Rgb, Vec2, Vec3};
-use luz::render::{render_with, RenderOptions};
+use luz::render::{build_accel, render_with, RenderOptions};
 use luz::scene::{load, Scene};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -170,7 +170,7 @@ fn the_mcguire_box_renders_lit_as_its_light_predicts() {
     let path = dir.join("box.toml");
     std::fs::write(&path, toml_scene(&obj)).unwrap();
     let scene = Arc::new(load(&path).unwrap());
-    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let accel = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
     let (film, _) = render_with(&scene, &accel, &RenderOptions::from_scene(&scene), &());
     assert_eq!(film.non_finite, 0);
     let (light, floor) = (shape_of(&scene, "light"), shape_of(&scene, "floor"));

@@ -6,14 +6,14 @@
 mod common;
 
 use common::meshes::{icosphere, load_scene, mesh_scene, obj, ply, quad_ply};
-use luz::accel::{Accel, BackendKind, BuildOptions};
-use luz::render::{render_with, Film, RenderOptions};
+use luz::accel::{BackendKind, BuildOptions};
+use luz::render::{build_accel, render_with, Film, RenderOptions};
 use luz::scene::Scene;
 use std::sync::Arc;
 
 fn render(scene: Scene) -> Film {
     let scene = Arc::new(scene);
-    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let accel = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
     render_with(&scene, &accel, &RenderOptions::from_scene(&scene), &()).0
 }
 

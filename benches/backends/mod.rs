@@ -23,6 +23,7 @@ use criterion::{black_box, BenchmarkGroup, Criterion, SamplingMode, Throughput};
 use luz::accel::{Accel, Backend, BackendKind, BuildOptions, Quality};
 use luz::geometry::Geometry;
 use luz::math::{spawn_ray, spawn_ray_to, Aabb, Frame, Mat4, PackedVec3, Ray, Vec2, Vec3};
+use luz::render::build_accel;
 use luz::sampling::{cosine_hemisphere, Rng};
 use luz::scene::Scene;
 use rayon::prelude::*;
@@ -74,7 +75,7 @@ fn cases() -> Vec<Case> {
                     .ok()?;
                 let from = Aabb::from_points(&mesh.positions);
                 mesh.transform(&fit(from, bunny_bounds));
-                *mesh_slot(&mut scene) = Geometry::Mesh(mesh);
+                *mesh_slot(&mut scene) = Geometry::from(mesh);
             }
             let triangles = match mesh_slot(&mut scene) {
                 Geometry::Mesh(m) => m.triangle_count() as u64,
@@ -120,12 +121,8 @@ fn fit(from: Aabb, to: Aabb) -> Mat4 {
 /// the light. Fixed seeds and the native backend's hits: the same rays on
 /// every run.
 fn ray_sets(scene: &Scene) -> RaySets {
-    let native = Accel::build(
-        &Arc::new(scene.clone()),
-        BackendKind::Rust,
-        &BuildOptions::default(),
-    )
-    .expect("the native backend builds");
+    let native = build_accel(scene, BackendKind::Rust, &BuildOptions::default())
+        .expect("the native backend builds");
     let mut cam = scene.camera.clone();
     cam.width = 256;
     cam.height = 256;
@@ -192,7 +189,7 @@ fn builds(c: &mut Criterion, cases: &[Case]) {
         group.throughput(Throughput::Elements(case.triangles));
         for (name, kind, options) in build_variants() {
             group.bench_function(format!("{}/{name}", case.name), |b| {
-                b.iter(|| Accel::build(&case.scene, kind, &options).expect("builds"))
+                b.iter(|| build_accel(&case.scene, kind, &options).expect("builds"))
             });
         }
     }
@@ -206,7 +203,7 @@ fn traversal(c: &mut Criterion, cases: &[Case]) {
             .into_iter()
             .map(|name| {
                 let kind = name.parse().expect("compiled backends parse");
-                let accel = Accel::build(&case.scene, kind, &BuildOptions::default());
+                let accel = build_accel(&case.scene, kind, &BuildOptions::default());
                 (name, accel.expect("builds"))
             })
             .collect();

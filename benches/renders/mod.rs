@@ -4,8 +4,8 @@
 //! count, is the same on every run.
 
 use criterion::{Criterion, SamplingMode, Throughput};
-use luz::accel::{Accel, BackendKind, BuildOptions};
-use luz::render::{render_with, RenderOptions};
+use luz::accel::{BackendKind, BuildOptions};
+use luz::render::{build_accel, render_with, RenderOptions};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -32,7 +32,7 @@ pub fn renders(c: &mut Criterion) {
             let kind = backend
                 .parse::<BackendKind>()
                 .expect("compiled backends parse");
-            let accel = Accel::build(&scene, kind, &BuildOptions::default()).expect("builds");
+            let accel = build_accel(&scene, kind, &BuildOptions::default()).expect("builds");
             let (_, stats) = render_with(&scene, &accel, &options, &());
             group.throughput(Throughput::Elements(stats.rays.total()));
             group.bench_function(format!("{name}-128x128-16spp/{backend}"), |b| {

@@ -12,8 +12,8 @@
 //! miss here is a miss there and images do not change.
 
 use super::bvh::FAR_SCALE;
+use crate::geometry::Geometry;
 use crate::math::{Aabb, Ray};
-use crate::scene::Shape;
 use crate::simd::F4;
 
 /// The box's corners in the first three lanes; the fourth lane's
@@ -28,13 +28,13 @@ impl Extent {
     /// The box around the shapes not `in_root`, widened by a few ulps of
     /// its coordinates so that a backend's own rounding (Embree's hit
     /// points are computed, not exact) cannot put a hit outside it.
-    pub(super) fn of(shapes: &[Shape], in_root: &[bool]) -> Self {
+    pub(super) fn of(shapes: &[Geometry], in_root: &[bool]) -> Self {
         let bounds = shapes
             .iter()
             .zip(in_root)
             .filter(|(_, &root)| !root)
-            .fold(Aabb::EMPTY, |b, (s, _)| {
-                b.union(s.geometry.bounds().unwrap_or(Aabb::EMPTY))
+            .fold(Aabb::EMPTY, |b, (g, _)| {
+                b.union(g.bounds().unwrap_or(Aabb::EMPTY))
             });
         // The empty box's infinities stay as they are (∞ − ∞ is NaN).
         let widen = |v: f32, out: f32| {
@@ -80,13 +80,13 @@ impl Extent {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Geometry, Sphere};
+    use crate::geometry::Sphere;
     use crate::math::Vec3;
     use crate::sampling::{uniform_sphere, Rng};
 
     fn sphere_extent(center: Vec3, radius: f32) -> (Sphere, Extent) {
         let sphere = Sphere { center, radius };
-        let shape = Shape::new(Geometry::Sphere(sphere.clone()), 0);
+        let shape = Geometry::Sphere(sphere.clone());
         (sphere, Extent::of(&[shape], &[false]))
     }
 
@@ -183,13 +183,10 @@ mod tests {
     #[test]
     fn nothing_outside_the_trees_touches_nothing() {
         let (_, extent) = sphere_extent(Vec3::ZERO, 1.0);
-        let shape = Shape::new(
-            Geometry::Sphere(Sphere {
-                center: Vec3::ZERO,
-                radius: 1.0,
-            }),
-            0,
-        );
+        let shape = Geometry::Sphere(Sphere {
+            center: Vec3::ZERO,
+            radius: 1.0,
+        });
         let empty = Extent::of(&[shape], &[true]);
         let ray = Ray::new(Vec3::new(0.0, 0.0, -5.0), Vec3::Z);
         assert!(extent.touches(&ray));

@@ -39,12 +39,11 @@ mod sphere_pack;
 
 pub use quality::{Quality, Work};
 
-use crate::scene::Scene;
+use crate::geometry::Geometry;
 use crate::simd::F4;
 use extent::Extent;
 use native::{Gathered, NativeBackend, Packed};
 use root::RootShapes;
-use std::sync::Arc;
 
 /// Whether a ray can be traced: finite origin and direction, `t_min` not
 /// NaN, `t_min < t_max`. No box or shape test can handle the others, which
@@ -136,21 +135,23 @@ pub enum AccelTree {
 }
 
 impl Accel {
+    /// The accelerator over `shapes`, its trees built for `work`; a hit's
+    /// `geom` is the shape's index in `shapes`.
     pub fn build(
-        scene: &Arc<Scene>,
+        shapes: &[Geometry],
+        work: Work,
         kind: BackendKind,
         options: &BuildOptions,
     ) -> Result<Self, AccelError> {
-        let (root, in_root) = RootShapes::of(&scene.shapes);
-        let extent = Extent::of(&scene.shapes, &in_root);
-        let work = Work::of(scene);
-        let native = || native::build(scene, &in_root, options.bvh_quality.native(work));
+        let (root, in_root) = RootShapes::of(shapes);
+        let extent = Extent::of(shapes, &in_root);
+        let native = || native::build(shapes, &in_root, options.bvh_quality.native(work));
         let tree = match kind {
             BackendKind::Rust => native(),
             #[cfg(luz_embree)]
-            BackendKind::Embree | BackendKind::Auto => AccelTree::Embree(
-                embree::EmbreeBackend::new(scene.clone(), &in_root, options, work)?,
-            ),
+            BackendKind::Embree | BackendKind::Auto => {
+                AccelTree::Embree(embree::EmbreeBackend::new(shapes, &in_root, options, work)?)
+            }
             #[cfg(not(luz_embree))]
             BackendKind::Auto => native(),
             #[cfg(not(luz_embree))]
@@ -278,21 +279,21 @@ pub fn embree_version() -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{Geometry, Mesh, Plane, Quad, Sphere};
+    use crate::geometry::{Mesh, Plane, Quad, Sphere};
     use crate::math::{PackedVec3, Vec3};
 
     /// A plane, a quad and a sphere (root shapes) and a triangle (a tree's),
     /// all on the ray below.
-    fn scene() -> Arc<Scene> {
+    fn shapes() -> [Geometry; 4] {
         let z = |z: f32| Vec3::new(-1.0, -1.0, z);
-        Arc::new(Scene::of_geometry([
+        [
             Geometry::Plane(Plane::new(Vec3::new(0.0, 0.0, -9.0), Vec3::Z)),
             Geometry::Quad(Quad::new(z(-4.0), 2.0 * Vec3::X, 2.0 * Vec3::Y).unwrap()),
             Geometry::Sphere(Sphere {
                 center: Vec3::new(0.0, 0.0, -6.0),
                 radius: 0.5,
             }),
-            Geometry::Mesh(Mesh {
+            Geometry::from(Mesh {
                 positions: vec![
                     z(-2.0).into(),
                     PackedVec3::new(1.0, -1.0, -2.0),
@@ -302,7 +303,7 @@ mod tests {
                 uvs: None,
                 normals: None,
             }),
-        ]))
+        ]
     }
 
     /// One check in `Accel`, for the root shapes and both trees: a ray with
@@ -310,7 +311,7 @@ mod tests {
     /// empty interval hits nothing and is occluded by nothing.
     #[test]
     fn untraceable_rays_hit_nothing_in_either_backend() {
-        let scene = scene();
+        let shapes = shapes();
         let good = Ray::new(Vec3::ZERO, -Vec3::Z);
         let mut bad = Vec::new();
         for v in [f32::NAN, f32::INFINITY, f32::NEG_INFINITY] {
@@ -336,7 +337,8 @@ mod tests {
             &[BackendKind::Rust]
         };
         for &kind in kinds {
-            let accel = Accel::build(&scene, kind, &BuildOptions::default()).unwrap();
+            let work = Work::of(1.0, &shapes);
+            let accel = Accel::build(&shapes, work, kind, &BuildOptions::default()).unwrap();
             let hit = accel.intersect(&good).expect("the triangle");
             assert_eq!((hit.geom, accel.occluded(&good)), (3, true), "{kind:?}");
             for r in &bad {

@@ -21,7 +21,7 @@
 
 use super::bvh::BuildQuality;
 use super::EmbreeQuality;
-use crate::scene::Scene;
+use crate::geometry::Geometry;
 
 /// A build quality preset, or `Auto`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -97,16 +97,11 @@ pub struct Work {
 }
 
 impl Work {
-    /// A whole render of `scene`: every pixel at its `spp`.
-    pub fn of(scene: &Scene) -> Self {
-        let c = &scene.camera;
-        let triangles = scene
-            .shapes
-            .iter()
-            .map(|s| s.geometry.primitive_count())
-            .sum::<usize>();
+    /// `samples` traced through `shapes`.
+    pub fn of(samples: f64, shapes: &[Geometry]) -> Self {
+        let triangles = shapes.iter().map(Geometry::primitive_count).sum::<usize>();
         Self {
-            samples: c.width as f64 * c.height as f64 * scene.render.spp as f64,
+            samples,
             triangles: triangles as f64,
         }
     }

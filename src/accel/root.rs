@@ -23,7 +23,6 @@
 use super::sphere_pack::SpherePack;
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray};
-use crate::scene::Shape;
 #[cfg(target_arch = "x86_64")]
 use crate::simd::F8;
 use crate::simd::{has_avx, Lanes, F4};
@@ -130,10 +129,9 @@ pub struct RootShapes {
 impl RootShapes {
     /// The root shapes of `shapes`, and per shape whether it is one of them
     /// (the backends' trees take the others).
-    pub fn of(shapes: &[Shape]) -> (Self, Vec<bool>) {
+    pub fn of(shapes: &[Geometry]) -> (Self, Vec<bool>) {
         let bounds = |g: &Geometry| g.bounds().unwrap_or(Aabb::EMPTY);
-        let count =
-            |f: &dyn Fn(&Geometry) -> bool| shapes.iter().filter(|s| f(&s.geometry)).count();
+        let count = |f: &dyn Fn(&Geometry) -> bool| shapes.iter().filter(|g| f(g)).count();
         let is_quad = |g: &Geometry| matches!(g, Geometry::Quad(_));
         let is_other = |g: &Geometry| matches!(g, Geometry::Sphere(_) | Geometry::Cuboid(_));
         // The scene's bounds pass over every mesh vertex: only for scenes
@@ -141,7 +139,7 @@ impl RootShapes {
         let scene_area = if count(&is_other) > 0 {
             shapes
                 .iter()
-                .fold(Aabb::EMPTY, |a, s| a.union(bounds(&s.geometry)))
+                .fold(Aabb::EMPTY, |a, g| a.union(bounds(g)))
                 .half_area()
         } else {
             0.0
@@ -160,9 +158,9 @@ impl RootShapes {
         let mut in_root = Vec::with_capacity(shapes.len());
         for (geom, shape) in shapes.iter().enumerate() {
             let geom = geom as u32;
-            let here = at_root(&shape.geometry);
+            let here = at_root(shape);
             in_root.push(here);
-            match &shape.geometry {
+            match shape {
                 _ if !here => {}
                 Geometry::Quad(q) => {
                     if quads % PACK == 0 {
@@ -327,16 +325,16 @@ mod tests {
     use crate::math::Vec3;
     use crate::sampling::{uniform_sphere, Rng};
 
-    fn quad(p0: Vec3, e1: Vec3, e2: Vec3) -> Shape {
-        Shape::new(Geometry::Quad(Quad::new(p0, e1, e2).unwrap()), 0)
+    fn quad(p0: Vec3, e1: Vec3, e2: Vec3) -> Geometry {
+        Geometry::Quad(Quad::new(p0, e1, e2).unwrap())
     }
 
-    fn sphere(center: Vec3, radius: f32) -> Shape {
-        Shape::new(Geometry::Sphere(Sphere { center, radius }), 0)
+    fn sphere(center: Vec3, radius: f32) -> Geometry {
+        Geometry::Sphere(Sphere { center, radius })
     }
 
     /// A closed box of six quads with two large spheres inside.
-    fn cornell() -> Vec<Shape> {
+    fn cornell() -> Vec<Geometry> {
         let (x, y, z) = (2.0 * Vec3::X, 2.0 * Vec3::Y, 2.0 * Vec3::Z);
         let o = Vec3::new(-1.0, 0.0, -1.0);
         let far = o + x + y + z;
@@ -353,11 +351,11 @@ mod tests {
     }
 
     /// The closest hit and any hit, shape by shape with the scalar routines.
-    fn brute(shapes: &[Shape], ray: &Ray) -> Option<(f32, u32)> {
+    fn brute(shapes: &[Geometry], ray: &Ray) -> Option<(f32, u32)> {
         let mut r = *ray;
         let mut best = None;
-        for (geom, s) in shapes.iter().enumerate() {
-            if let Some(h) = s.geometry.intersect(0, &r) {
+        for (geom, g) in shapes.iter().enumerate() {
+            if let Some(h) = g.intersect(0, &r) {
                 r.t_max = h.t;
                 best = Some((h.t, geom as u32));
             }
@@ -430,11 +428,7 @@ mod tests {
         }
         shapes.push(sphere(Vec3::new(0.0, 1.5, 0.0), 0.05));
         let (_, in_root) = RootShapes::of(&shapes);
-        let kinds: Vec<_> = shapes
-            .iter()
-            .map(|s| s.geometry.name())
-            .zip(in_root)
-            .collect();
+        let kinds: Vec<_> = shapes.iter().map(|g| g.name()).zip(in_root).collect();
         for (name, at_root) in &kinds[..6] {
             assert_eq!((*name, *at_root), ("quad", false));
         }

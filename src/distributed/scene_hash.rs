@@ -145,6 +145,7 @@ mod tests {
     use crate::math::{PackedVec3, Vec2, Vec3};
     use crate::sampling::SamplerKind;
     use crate::scene::{Camera, EnvMap, Shape};
+    use std::sync::Arc;
 
     fn scene() -> Scene {
         let mesh = Mesh {
@@ -154,7 +155,7 @@ mod tests {
             normals: None,
         };
         let shapes = vec![
-            Shape::new(Geometry::Mesh(mesh), 0),
+            Shape::new(Geometry::from(mesh), 0),
             Shape::new(Geometry::Sphere(sphere(0.5)), 0),
         ];
         let texture = Texture::Image {
@@ -196,7 +197,7 @@ mod tests {
 
     fn mesh(s: &mut Scene) -> &mut Mesh {
         match &mut s.shapes[0].geometry {
-            Geometry::Mesh(m) => m,
+            Geometry::Mesh(m) => Arc::make_mut(m),
             _ => unreachable!(),
         }
     }

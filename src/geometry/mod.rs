@@ -17,6 +17,7 @@ pub use quad::Quad;
 pub use sphere::Sphere;
 
 use crate::math::{Aabb, PackedVec3, Ray, Vec2, Vec3};
+use std::sync::Arc;
 
 /// The largest coordinate magnitude a scene may place anything at. The
 /// intersection routines are f32 (as Embree is) and raise coordinate
@@ -131,7 +132,16 @@ pub enum Geometry {
     Plane(Plane),
     Quad(Quad),
     Cuboid(Cuboid),
-    Mesh(Mesh),
+    /// Shared, so that a backend can keep the vertices it reads in place
+    /// (Embree's shared buffers, the native gathered leaves) without the
+    /// rest of the scene.
+    Mesh(Arc<Mesh>),
+}
+
+impl From<Mesh> for Geometry {
+    fn from(mesh: Mesh) -> Self {
+        Geometry::Mesh(Arc::new(mesh))
+    }
 }
 
 impl Geometry {
@@ -258,7 +268,7 @@ mod tests {
                 false,
             ),
             (
-                Geometry::Mesh(Mesh {
+                Geometry::from(Mesh {
                     positions: [v(-1.0, 0.0, -1.0), v(1.0, 0.2, -0.5), v(0.0, -0.1, 1.0)]
                         .map(PackedVec3::from)
                         .to_vec(),

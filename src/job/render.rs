@@ -6,13 +6,13 @@ use super::files::{check_output, refuse_overlaps, Checkpoint, Role};
 use super::observer::{metered_by, Observer, Stage};
 use super::signals::Stop;
 use super::{JobError, WriteError};
-use crate::accel::{Accel, Backend as _, BackendKind, BuildOptions};
+use crate::accel::{Backend as _, BackendKind, BuildOptions};
 use crate::distributed::part::{self, PartMeta};
 use crate::distributed::passes::{render_passes, Outcome, PassTiming};
 use crate::distributed::task::{self, Task};
 use crate::image::io::{self as imageio, WriteOptions};
 use crate::render::film::ErrorEstimate;
-use crate::render::{Film, RenderOptions, RenderStats, Sampling};
+use crate::render::{build_accel, Film, RenderOptions, RenderStats, Sampling};
 use crate::sampling::SamplerKind;
 use crate::scene::{LoadOptions, Scene, SceneError};
 use std::ops::Range;
@@ -237,7 +237,7 @@ impl RenderJob {
         }
 
         let build_start = Instant::now();
-        let accel = metered_by(observer, || Accel::build(&scene, self.backend, &self.build))?;
+        let accel = metered_by(observer, || build_accel(&scene, self.backend, &self.build))?;
         let build_time = build_start.elapsed();
         observer.stage_done(Stage::Built, build_time);
 

@@ -12,7 +12,7 @@ pub use adaptive::Sampling;
 pub use film::{Film, PixelPlan, PixelSum};
 pub use integrator::{Integrator, IntegratorSettings, RayCounts};
 
-use crate::accel::{Accel, AccelTree, Backend};
+use crate::accel::{Accel, AccelError, AccelTree, Backend, BackendKind, BuildOptions, Work};
 use crate::math::Vec2;
 use crate::sampling::{Sampler, SamplerKind};
 use crate::scene::Scene;
@@ -254,6 +254,20 @@ impl<B: Backend + ?Sized> PixelRenderer<'_, B> {
     }
 }
 
+/// The accelerator over `scene`'s shapes (a hit's `geom` indexes
+/// `scene.shapes`), its trees built for a whole render of the scene: every
+/// pixel at its `spp`.
+pub fn build_accel(
+    scene: &Scene,
+    kind: BackendKind,
+    options: &BuildOptions,
+) -> Result<Accel, AccelError> {
+    let shapes: Vec<_> = scene.shapes.iter().map(|s| s.geometry.clone()).collect();
+    let c = &scene.camera;
+    let samples = c.width as f64 * c.height as f64 * scene.render.spp as f64;
+    Accel::build(&shapes, Work::of(samples, &shapes), kind, options)
+}
+
 /// `render` with the backend held in an `Accel`.
 pub fn render_with(
     scene: &Scene,
@@ -325,7 +339,7 @@ material = "wall"
     /// The film of `scene` rendered in pieces, from each of `cuts` to the
     /// next, on `threads` threads.
     fn film(scene: &Arc<Scene>, sampler: SamplerKind, cuts: &[u32], threads: usize) -> Film {
-        let accel = Accel::build(scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        let accel = build_accel(scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
         let mut film = Film::new(scene.camera.width, scene.camera.height);
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -345,7 +359,7 @@ material = "wall"
     /// The film of an adaptive render of `scene`, in passes of at most
     /// `pass` samples per pixel, on `threads` threads.
     fn adaptive_film(scene: &Arc<Scene>, sampling: Sampling, pass: u32, threads: usize) -> Film {
-        let accel = Accel::build(scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+        let accel = build_accel(scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
         let mut film = Film::new(scene.camera.width, scene.camera.height);
         film.plan = sampling.first_plan(film.sum.len());
         let pool = rayon::ThreadPoolBuilder::new()

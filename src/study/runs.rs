@@ -3,11 +3,13 @@
 
 use super::settings::{self, Setting};
 use super::{ReferenceSource, Report, Row, StudyError, StudyOptions, REFERENCE_SPP_FACTOR};
-use crate::accel::{Accel, BackendKind, BuildOptions};
+use crate::accel::{BackendKind, BuildOptions};
 use crate::geometry::Geometry;
 use crate::image::io::{self as imageio, WriteOptions};
 use crate::image::{metrics, Image};
-use crate::render::{render_with, IntegratorSettings, Progress, RenderOptions, Sampling};
+use crate::render::{
+    build_accel, render_with, IntegratorSettings, Progress, RenderOptions, Sampling,
+};
 use crate::scene::Scene;
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -118,7 +120,7 @@ impl Study {
         for (index, setting) in self.settings.iter().enumerate() {
             let scene = self.variant(setting);
             let start = Instant::now();
-            let accel = Accel::build(&scene, setting.backend, &setting.build)?;
+            let accel = build_accel(&scene, setting.backend, &setting.build)?;
             let build_s = start.elapsed().as_secs_f64();
             let render = |spp: u32| {
                 let options = RenderOptions {
@@ -179,7 +181,7 @@ impl Study {
         progress: &dyn Progress,
     ) -> Result<Image, StudyError> {
         let scene = Arc::clone(&self.scene);
-        let accel = Accel::build(&scene, r.backend, &self.build)?;
+        let accel = build_accel(&scene, r.backend, &self.build)?;
         let mut options = RenderOptions::from_scene(&scene);
         options.samples = 0..r.spp;
         options.seed = r.seed;

@@ -14,12 +14,12 @@ mod renders;
 
 use common::embree_compiled;
 
-use luz::accel::{Accel, Backend, BackendKind, BuildOptions};
+use luz::accel::{Backend, BackendKind, BuildOptions};
 use luz::geometry::Geometry;
 use luz::geometry::{Mesh, Quad, Sphere};
 use luz::image::io::{read, write, WriteOptions};
 use luz::math::{reflect, spawn_ray, Ray, Rgb, Vec3};
-use luz::render::{render_with, Film, PixelSum, RenderOptions};
+use luz::render::{build_accel, render_with, Film, PixelSum, RenderOptions};
 use luz::sampling::{uniform_sphere, Rng};
 use luz::scene::{load_str, Scene};
 use std::collections::HashMap;
@@ -108,7 +108,7 @@ fn render_checked(
     what: &str,
     name: &str,
 ) -> Film {
-    let accel = Accel::build(scene, kind, options).unwrap();
+    let accel = build_accel(scene, kind, options).unwrap();
     let film = render_with(scene, &accel, &RenderOptions::from_scene(scene), &()).0;
     let img = film.image();
     let bad = (0..film.height)

@@ -20,7 +20,7 @@ fn sphere_reintersection_from_1e_minus4_to_1e6() {
         let center = Vec3::new(3.0, -1.0, 2.0) * radius;
         let scene = scene_of(vec![Geometry::Sphere(Sphere { center, radius })]);
         for (name, kind, options) in configs() {
-            let accel = Accel::build(&scene, kind, &options).unwrap();
+            let accel = build_accel(&scene, kind, &options).unwrap();
             let mut rng = Rng::new(7, radius.to_bits() as u64);
             let (mut probes, mut rays, mut self_hits, mut missed, mut nf) = (0, 0u64, 0, 0, 0);
             for _ in 0..200 {
@@ -113,11 +113,11 @@ fn grazing_rays_down_to_1e_minus6_rad() {
         };
         for (shape_name, g) in [
             ("quad", Geometry::Quad(quad)),
-            ("triangle", Geometry::Mesh(tri)),
+            ("triangle", Geometry::from(tri)),
         ] {
             let scene = scene_of(vec![g]);
             for (name, kind, options) in configs() {
-                let accel = Accel::build(&scene, kind, &options).unwrap();
+                let accel = build_accel(&scene, kind, &options).unwrap();
                 let (mut probes, mut hits, mut rays, mut self_hits, mut nf) =
                     (0u64, 0u64, 0u64, 0u64, 0u64);
                 for k in 1..=6 {
@@ -238,9 +238,9 @@ fn closed_mesh_probed_from_inside_never_leaks() {
     for (center, radius) in [(Vec3::ZERO, 1.0f32), (Vec3::new(2e3, -1e3, 1e3), 1e3)] {
         let mesh = octasphere(5, center, radius);
         assert_eq!(mesh.indices.len(), 8192);
-        let scene = scene_of(vec![Geometry::Mesh(mesh)]);
+        let scene = scene_of(vec![Geometry::from(mesh)]);
         for (name, kind, options) in configs() {
-            let accel = Accel::build(&scene, kind, &options).unwrap();
+            let accel = build_accel(&scene, kind, &options).unwrap();
             let mut rng = Rng::new(99, radius.to_bits() as u64);
             let n = 1_000_000u64;
             let mut escapes = 0u64;
@@ -351,10 +351,10 @@ fn sliver_and_degenerate_triangles() {
         indices[..slivers],
         "the loader drops exactly the degenerate triangles"
     );
-    let scene = scene_of(vec![Geometry::Mesh(mesh)]);
+    let scene = scene_of(vec![Geometry::from(mesh)]);
     let mut failures = Vec::new();
     for (name, kind, options) in configs() {
-        let accel = Accel::build(&scene, kind, &options).unwrap();
+        let accel = build_accel(&scene, kind, &options).unwrap();
         let mut rng = Rng::new(23, 1);
         let (mut probes, mut rays, mut self_hits, mut nf) = (0u64, 0u64, 0u64, 0u64);
         let (mut lost_edge, mut lost_inside) = (0u64, 0u64);

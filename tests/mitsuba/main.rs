@@ -7,10 +7,10 @@
 mod common;
 
 use common::{luz, temp_dir};
-use luz::accel::{Accel, BackendKind, BuildOptions};
+use luz::accel::{BackendKind, BuildOptions};
 use luz::geometry::Geometry;
 use luz::math::Vec3;
-use luz::render::{render_with, RenderOptions};
+use luz::render::{build_accel, render_with, RenderOptions};
 use luz::scene::{load_with, LoadOptions, Opacity, Scene, SceneError};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -54,7 +54,7 @@ fn ok_err(test: &str, body: &str) -> String {
 
 fn image(scene: &Scene, spp: u32) -> luz::image::Image {
     let scene = Arc::new(scene.clone());
-    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let accel = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
     let mut options = RenderOptions::from_scene(&scene);
     options.samples = 0..spp;
     render_with(&scene, &accel, &options, &()).0.image()
@@ -62,7 +62,7 @@ fn image(scene: &Scene, spp: u32) -> luz::image::Image {
 
 fn mean(scene: &Scene, spp: u32) -> [f64; 3] {
     let scene = Arc::new(scene.clone());
-    let accel = Accel::build(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
+    let accel = build_accel(&scene, BackendKind::Rust, &BuildOptions::default()).unwrap();
     let mut options = RenderOptions::from_scene(&scene);
     options.samples = 0..spp;
     let (film, _) = render_with(&scene, &accel, &options, &());

@@ -33,19 +33,18 @@ use super::{AccelError, BuildOptions, EmbreeQuality, Tree, Work};
 use crate::geometry::{Geometry, PreliminaryHit, PrimHit};
 use crate::math::{Aabb, Ray};
 use crate::meter::{Step, StepKind};
-use crate::scene::Scene;
-use std::sync::Arc;
 
 pub struct EmbreeBackend {
     // Field order is drop order: the Embree scene (which holds pointers into
-    // `scene`'s shapes) goes first, the shapes last.
+    // `shapes`) goes first, the shapes last.
     rtc: sys::Scene,
     device: sys::Device,
     /// No geometry was attached.
     empty: bool,
-    /// Owns the vertex and index buffers Embree reads (shared, not copied)
-    /// and the user geometry it calls back into.
-    _scene: Arc<Scene>,
+    /// A copy of the shapes (the meshes shared, not copied): owns the
+    /// vertex and index buffers Embree reads and the user geometry it calls
+    /// back into, at addresses that stay put while the backend moves.
+    _shapes: Box<[Geometry]>,
 }
 
 /// Spheres, quads and cuboids as Embree user primitives (one per shape).
@@ -67,21 +66,21 @@ impl sys::UserPrimitives for Geometry {
 }
 
 impl EmbreeBackend {
-    /// Embree's scene of the shapes of `scene`, less those `in_root`
-    /// (which `Accel` tests).
+    /// Embree's scene of `shapes`, less those `in_root` (which `Accel`
+    /// tests); a hit's `geom` is the shape's index in `shapes`.
     pub fn new(
-        scene: Arc<Scene>,
+        shapes: &[Geometry],
         in_root: &[bool],
         options: &BuildOptions,
         work: Work,
     ) -> Result<Self, AccelError> {
-        Self::with_device_config(scene, in_root, options, work, None)
+        Self::with_device_config(shapes, in_root, options, work, None)
     }
 
     /// `new` with an Embree device configuration string (`rtcNewDevice`'s
     /// argument, e.g. "threads=4,verbose=1"); `None` is Embree's default.
     pub fn with_device_config(
-        scene: Arc<Scene>,
+        shapes: &[Geometry],
         in_root: &[bool],
         options: &BuildOptions,
         work: Work,
@@ -90,36 +89,34 @@ impl EmbreeBackend {
         let device = sys::Device::new(config)?;
         let (quality, compact) = options.embree_quality.embree(work);
         let rtc = device.new_scene(quality, options.embree_robust, compact)?;
+        let shapes: Box<[Geometry]> = shapes.into();
         let mut empty = true;
-        for (id, shape) in scene.shapes.iter().enumerate() {
+        for (id, shape) in shapes.iter().enumerate() {
             if in_root[id] {
                 continue;
             }
             let id = u32::try_from(id).ok().filter(|&i| i != u32::MAX).ok_or(
                 EmbreeError::TooManyShapes {
-                    shapes: scene.shapes.len(),
+                    shapes: shapes.len(),
                 },
             )?;
-            // SAFETY: the shapes live in `scene`, an `Arc` this backend holds
+            // SAFETY: the shapes live in `shapes`, which this backend holds
             // and drops after the Embree scene.
-            let Some(geom) = (unsafe { geometry_of(&device, id, &shape.geometry, quality)? })
-            else {
+            let Some(geom) = (unsafe { geometry_of(&device, id, shape, quality)? }) else {
                 continue;
             };
             device.attach(&rtc, &geom, id)?;
             empty = false;
         }
-        let in_tree = scene.shapes.iter().zip(in_root).filter(|(_, &r)| !r);
-        let primitives = in_tree
-            .map(|(s, _)| s.geometry.primitive_count())
-            .sum::<usize>() as u64;
+        let in_tree = shapes.iter().zip(in_root).filter(|(_, &r)| !r);
+        let primitives = in_tree.map(|(g, _)| g.primitive_count()).sum::<usize>() as u64;
         let _step = Step::begin(StepKind::BuildTree { backend: "embree" }, primitives);
         device.commit(&rtc, Step::current(), primitives)?;
         Ok(Self {
             rtc,
             device,
             empty,
-            _scene: scene,
+            _shapes: shapes,
         })
     }
 
@@ -214,13 +211,9 @@ mod tests {
     use crate::geometry::{Mesh, Sphere};
     use crate::math::{PackedVec3, Vec3};
 
-    fn scene_of(shapes: Vec<Geometry>) -> Arc<Scene> {
-        Arc::new(Scene::of_geometry(shapes))
-    }
-
-    fn build(scene: Arc<Scene>, in_root: &[bool]) -> Result<EmbreeBackend, AccelError> {
-        let work = Work::of(&scene);
-        EmbreeBackend::new(scene, in_root, &BuildOptions::default(), work)
+    fn build(shapes: &[Geometry], in_root: &[bool]) -> Result<EmbreeBackend, AccelError> {
+        let work = Work::of(1.0, shapes);
+        EmbreeBackend::new(shapes, in_root, &BuildOptions::default(), work)
     }
 
     /// Both ways of handing Embree a mesh: its own copy, and luz's array
@@ -237,9 +230,9 @@ mod tests {
             if spare {
                 positions.reserve_exact(1);
             }
-            let scene = sphere_behind(positions, vec![[0, 1, 2]]);
+            let shapes = sphere_behind(positions, vec![[0, 1, 2]]);
             // Nothing at the root: the sphere is user geometry.
-            let b = build(scene, &[false, false]).unwrap();
+            let b = build(&shapes, &[false, false]).unwrap();
             let down = |x: f32| Ray::new(Vec3::new(x, 0.0, 0.0), -Vec3::Z);
             let h = b.closest(&down(0.0)).unwrap();
             assert_eq!((h.geom, h.prim), (1, 0));
@@ -254,21 +247,21 @@ mod tests {
         }
     }
 
-    /// A scene of a unit sphere at z = -5 (shape 0) and the mesh
-    /// `positions`, `indices` (shape 1).
-    fn sphere_behind(positions: Vec<PackedVec3>, indices: Vec<[u32; 3]>) -> Arc<Scene> {
-        scene_of(vec![
+    /// A unit sphere at z = -5 (shape 0) and the mesh `positions`,
+    /// `indices` (shape 1).
+    fn sphere_behind(positions: Vec<PackedVec3>, indices: Vec<[u32; 3]>) -> Vec<Geometry> {
+        vec![
             Geometry::Sphere(Sphere {
                 center: Vec3::new(0.0, 0.0, -5.0),
                 radius: 1.0,
             }),
-            Geometry::Mesh(Mesh {
+            Geometry::from(Mesh {
                 positions,
                 indices,
                 uvs: None,
                 normals: None,
             }),
-        ])
+        ]
     }
 
     /// The build is one step counting the tree's primitives (the sphere's
@@ -291,8 +284,8 @@ mod tests {
                 })
             })
             .collect();
-        let scene = sphere_behind(positions, indices);
-        let (built, events) = Recorder::record(|| build(scene, &[false, false]));
+        let shapes = sphere_behind(positions, indices);
+        let (built, events) = Recorder::record(|| build(&shapes, &[false, false]));
         assert!(built.is_ok());
         let steps = steps(&events);
         let primitives = 1 + 2 * (side * side) as u64;
@@ -306,12 +299,11 @@ mod tests {
 
     #[test]
     fn embree_failures_become_accel_errors() {
-        let scene = scene_of(vec![]);
         match EmbreeBackend::with_device_config(
-            scene,
+            &[],
             &[],
             &BuildOptions::default(),
-            Work::of(&Scene::of_geometry(Vec::new())),
+            Work::of(1.0, &[]),
             Some("threads=x"),
         ) {
             Err(AccelError::Embree(e @ EmbreeError::Device { .. })) => {
@@ -324,13 +316,13 @@ mod tests {
 
     #[test]
     fn out_of_range_indices_are_a_build_error_not_a_crash() {
-        let scene = scene_of(vec![Geometry::Mesh(Mesh {
+        let shapes = [Geometry::from(Mesh {
             positions: vec![PackedVec3::ZERO, PackedVec3::X, PackedVec3::Y],
             indices: vec![[0, 1, 7]],
             uvs: None,
             normals: None,
-        })]);
-        match build(scene, &[false]) {
+        })];
+        match build(&shapes, &[false]) {
             Err(AccelError::Embree(
                 e @ EmbreeError::VertexOutOfRange {
                     shape: 0,

@@ -3,10 +3,9 @@
 
 use super::pack::{intersect_pack, Hit, Nearest, PackRay, TriPack};
 use crate::accel::bvh::PADDING;
-use crate::geometry::{has_zero_area, Geometry, Mesh};
+use crate::geometry::{has_zero_area, Mesh};
 use crate::math::{Aabb, Vec3};
 use crate::memory;
-use crate::scene::Scene;
 use crate::simd::F4;
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -14,17 +13,17 @@ use std::sync::Arc;
 /// The triangles of several meshes, numbered one after the other (the
 /// numbers are the tree's primitives, so they fit in u32 as its slots do).
 #[derive(Default)]
-pub(super) struct Triangles<'a> {
-    meshes: Vec<&'a Mesh>,
+pub(super) struct Triangles {
+    meshes: Vec<Arc<Mesh>>,
     starts: MeshStarts,
     count: usize,
 }
 
-impl<'a> Triangles<'a> {
-    pub(super) fn push(&mut self, geom: u32, mesh: &'a Mesh) {
-        self.meshes.push(mesh);
+impl Triangles {
+    pub(super) fn push(&mut self, geom: u32, mesh: Arc<Mesh>) {
         self.starts.0.push((self.count as u32, geom));
         self.count += mesh.triangle_count();
+        self.meshes.push(mesh);
     }
 
     pub(super) fn count(&self) -> usize {
@@ -33,14 +32,19 @@ impl<'a> Triangles<'a> {
 
     /// Mesh and triangle of triangle number `i`.
     #[inline]
-    fn get(&self, i: usize) -> (&'a Mesh, u32) {
+    fn get(&self, i: usize) -> (&Mesh, u32) {
         let (m, prim) = self.starts.mesh_of(i as u32);
-        (self.meshes[m], prim)
+        (&self.meshes[m], prim)
     }
 
     /// What `MeshStarts::locate` needs once the meshes are gone.
     pub(super) fn starts(&self) -> MeshStarts {
         self.starts.clone()
+    }
+
+    /// The meshes, for leaves that read them (`Gathered`).
+    pub(super) fn into_meshes(self) -> Vec<Arc<Mesh>> {
+        self.meshes
     }
 
     /// Bounds of the meshes' vertices, which hold every triangle's
@@ -108,20 +112,12 @@ impl MeshStarts {
 
 /// The meshes a gathering leaf reads: `only` when there is one.
 struct Source<'s> {
-    scene: &'s Scene,
+    meshes: &'s [Arc<Mesh>],
     starts: &'s MeshStarts,
     only: Option<&'s Mesh>,
 }
 
-impl<'s> Source<'s> {
-    #[inline(always)]
-    fn mesh(scene: &'s Scene, geom: u32) -> Option<&'s Mesh> {
-        match &scene.shapes[geom as usize].geometry {
-            Geometry::Mesh(mesh) => Some(mesh),
-            _ => None,
-        }
-    }
-
+impl Source<'_> {
     /// The vertices of the four triangles of `slots`, coordinates in
     /// lanes, built in registers where they are tested (written out:
     /// `array::from_fn` was left out of line), and their numbers.
@@ -146,8 +142,8 @@ impl<'s> Source<'s> {
         if let Some(mesh) = self.only {
             return mesh.vertices(triangle);
         }
-        let (geom, prim) = self.starts.locate(triangle);
-        Self::mesh(self.scene, geom).map_or([Vec3::NAN; 3], |mesh| mesh.vertices(prim))
+        let (m, prim) = self.starts.mesh_of(triangle);
+        self.meshes[m].vertices(prim)
     }
 }
 
@@ -193,29 +189,33 @@ impl Leaves for Packed {
     }
 }
 
-/// The packs gathered from the scene's meshes by the tree's slots, as
-/// Embree's compact layout does: no memory of their own, for a tree that
-/// serves few rays per triangle.
+/// The packs gathered from the meshes by the tree's slots, as Embree's
+/// compact layout does: no memory of their own (the meshes are shared),
+/// for a tree that serves few rays per triangle.
 pub struct Gathered {
-    scene: Arc<Scene>,
+    meshes: Vec<Arc<Mesh>>,
     starts: MeshStarts,
 }
 
 impl Gathered {
-    pub(super) fn new(scene: Arc<Scene>, starts: MeshStarts) -> Self {
-        Self { scene, starts }
+    pub(super) fn new(triangles: Triangles) -> Self {
+        let starts = triangles.starts();
+        Self {
+            meshes: triangles.into_meshes(),
+            starts,
+        }
     }
 
     /// Where the leaf reads its triangles.
     #[inline(always)]
     fn source(&self) -> Source<'_> {
         // With one mesh (most scenes), it is looked up once per leaf.
-        let only = match self.starts.0.as_slice() {
-            [(_, geom)] => Source::mesh(&self.scene, *geom),
+        let only = match self.meshes.as_slice() {
+            [mesh] => Some(&**mesh),
             _ => None,
         };
         Source {
-            scene: &self.scene,
+            meshes: &self.meshes,
             starts: &self.starts,
             only,
         }

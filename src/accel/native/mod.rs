@@ -33,25 +33,23 @@ use super::{AccelTree, Tree};
 use crate::geometry::{Geometry, PreliminaryHit};
 use crate::math::Ray;
 use crate::meter::{Step, StepKind};
-use crate::scene::Scene;
 use leaves::{Leaves, MeshStarts, Triangles};
 use pack::PackRay;
-use std::sync::Arc;
 
-/// The native backend's trees over `scene`'s shapes, less those `in_root`
-/// (which `Accel` tests), built at `quality`: leaves gathered after the
-/// `Low` build, stored after the others; the `AccelTree` variant is the
-/// leaf layout's.
-pub fn build(scene: &Arc<Scene>, in_root: &[bool], quality: BuildQuality) -> AccelTree {
+/// The native backend's trees over `shapes`, less those `in_root` (which
+/// `Accel` tests), built at `quality`: leaves gathered after the `Low`
+/// build, stored after the others; the `AccelTree` variant is the leaf
+/// layout's. A hit's `geom` is the shape's index in `shapes`.
+pub fn build(shapes: &[Geometry], in_root: &[bool], quality: BuildQuality) -> AccelTree {
     let mut meshes = Triangles::default();
     let mut boxes = Vec::new();
     let mut analytic = Vec::new();
-    for (geom, shape) in scene.shapes.iter().enumerate() {
+    for (geom, shape) in shapes.iter().enumerate() {
         if in_root[geom] {
             continue;
         }
-        match &shape.geometry {
-            Geometry::Mesh(m) => meshes.push(geom as u32, m),
+        match shape {
+            Geometry::Mesh(m) => meshes.push(geom as u32, m.clone()),
             g => {
                 boxes.push(g.primitive_bounds(0).expect("planes are root shapes"));
                 analytic.push((geom as u32, g.clone()));
@@ -100,10 +98,7 @@ pub fn build(scene: &Arc<Scene>, in_root: &[bool], quality: BuildQuality) -> Acc
         analytic,
     };
     match quality {
-        BuildQuality::Low => {
-            let gathered = Gathered::new(scene.clone(), backend.mesh_starts.clone());
-            AccelTree::NativeGathered(backend.with_leaves(gathered))
-        }
+        BuildQuality::Low => AccelTree::NativeGathered(backend.with_leaves(Gathered::new(meshes))),
         _ => {
             let packs = meshes.packs(backend.tri_bvh.primitive_indices());
             AccelTree::Native(backend.with_leaves(packs))

@@ -175,12 +175,15 @@ impl Ctx<'_> {
                     }
                     None => None,
                 };
-                Geometry::Mesh(Mesh {
-                    positions,
-                    indices: vec![[0, 1, 2]],
-                    uvs,
-                    normals: None,
-                })
+                Geometry::Mesh(
+                    Mesh {
+                        positions,
+                        indices: vec![[0, 1, 2]],
+                        uvs,
+                        normals: None,
+                    }
+                    .into(),
+                )
             }
             "mesh" => return self.mesh(span, sd, warnings),
             _ => unreachable!("shape kinds are checked above"),
@@ -195,9 +198,10 @@ impl Ctx<'_> {
 pub(super) fn uv_extent(g: &Geometry) -> f32 {
     match g {
         Geometry::Plane(_) => 2.0 * MAX_COORDINATE,
-        Geometry::Mesh(Mesh { uvs: Some(uvs), .. }) => uvs
-            .iter()
-            .fold(1.0f32, |m, uv| m.max(uv.abs().max_element())),
+        Geometry::Mesh(mesh) => mesh.uvs.as_ref().map_or(1.0, |uvs| {
+            uvs.iter()
+                .fold(1.0f32, |m, uv| m.max(uv.abs().max_element()))
+        }),
         _ => 1.0,
     }
 }

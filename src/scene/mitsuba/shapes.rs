@@ -16,6 +16,7 @@ use crate::scene::obj_materials::obj_parts;
 use crate::scene::{Opacity, SceneError, Shape, Texture, UvTransform};
 use glam::{DMat4, DVec3};
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Segments of the polygon that stands in for a disk.
 const DISK_SEGMENTS: u32 = 64;
@@ -34,7 +35,7 @@ impl<'e> Builder<'e, '_> {
             "obj" | "ply" | "serialized" => match self.mesh_file(&props, &m)? {
                 Some((mesh, path, groups)) => {
                     own_materials = (!groups.is_empty()).then_some((path, groups));
-                    Geometry::Mesh(mesh)
+                    Geometry::Mesh(mesh.into())
                 }
                 None => {
                     props.objects("bsdf")?;
@@ -43,13 +44,13 @@ impl<'e> Builder<'e, '_> {
                 }
             },
             "rectangle" => rectangle(e, &m)?,
-            "cube" => Geometry::Mesh(checked(e, cube(&m))?),
+            "cube" => Geometry::Mesh(checked(e, cube(&m))?.into()),
             "disk" => {
                 self.problems.warn(
                     &e.loc,
                     format!("<shape type=\"disk\">: substituted a {DISK_SEGMENTS}-sided polygon of the same area"),
                 )?;
-                Geometry::Mesh(checked(e, disk(&m))?)
+                Geometry::Mesh(checked(e, disk(&m))?.into())
             }
             "sphere" => self.sphere(&props, &m, flip)?,
             other => {
@@ -180,7 +181,7 @@ impl<'e> Builder<'e, '_> {
         let Geometry::Mesh(mesh) = geometry else {
             unreachable!("only mesh files have material groups")
         };
-        let parts = obj_parts(path, mesh, groups)
+        let parts = obj_parts(path, Arc::unwrap_or_clone(mesh), groups)
             .map_err(|err| e.loc.error(format!("`filename`: {err}")))?;
         self.files.extend(parts.files);
         for w in parts.warnings {
@@ -199,7 +200,7 @@ impl<'e> Builder<'e, '_> {
         let mut pieces = Vec::with_capacity(parts.parts.len());
         for (mut mesh, m) in parts.parts {
             mesh.positions.reserve_exact(1);
-            let geometry = Geometry::Mesh(mesh);
+            let geometry = Geometry::Mesh(mesh.into());
             let material = &self.materials[(material_base + m) as usize];
             let power = material.emission.max_element() * geometry.area().unwrap_or(0.0);
             if !power.is_finite() {
@@ -340,7 +341,7 @@ fn disk(m: &DMat4) -> Mesh {
 fn flipped(g: Geometry) -> Geometry {
     match g {
         Geometry::Mesh(mut mesh) => {
-            for t in &mut mesh.indices {
+            for t in &mut Arc::make_mut(&mut mesh).indices {
                 t.swap(1, 2);
             }
             Geometry::Mesh(mesh)
