@@ -337,7 +337,8 @@ mod tests {
             &[BackendKind::Rust]
         };
         for &kind in kinds {
-            let work = Work::of(1.0, &shapes);
+            // A 1×1 render at the default 16 spp: `auto`'s medium builds.
+            let work = Work::of(16.0, &shapes);
             let accel = Accel::build(&shapes, work, kind, &BuildOptions::default()).unwrap();
             let hit = accel.intersect(&good).expect("the triangle");
             assert_eq!((hit.geom, accel.occluded(&good)), (3, true), "{kind:?}");

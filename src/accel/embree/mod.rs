@@ -15,9 +15,10 @@
 //!   geometry whose callbacks call the very routines the native backend uses
 //!   (`Geometry::intersect`).
 //!
-//! Every geometry is attached with `rtcAttachGeometryByID` under the scene's
-//! own shape index, so Embree's `geomID` is `PreliminaryHit::geom` without
-//! remapping.
+//! Every geometry is attached with `rtcAttachGeometryByID` under its index
+//! in the shapes the backend is built from (a scene's shape index, through
+//! `render::build_accel`), so Embree's `geomID` is `PreliminaryHit::geom`
+//! without remapping.
 //!
 //! All Embree-3 specifics (layouts, constants, callback conventions) live in
 //! `sys3`; this file uses only its small safe API, whose failures are
@@ -212,7 +213,8 @@ mod tests {
     use crate::math::{PackedVec3, Vec3};
 
     fn build(shapes: &[Geometry], in_root: &[bool]) -> Result<EmbreeBackend, AccelError> {
-        let work = Work::of(1.0, shapes);
+        // A 1×1 render at the default 16 spp: `auto`'s medium build.
+        let work = Work::of(16.0, shapes);
         EmbreeBackend::new(shapes, in_root, &BuildOptions::default(), work)
     }
 

@@ -37,7 +37,8 @@ impl Triangles {
         (&self.meshes[m], prim)
     }
 
-    /// What `MeshStarts::locate` needs once the meshes are gone.
+    /// What `MeshStarts::locate` needs, for leaves that keep no meshes
+    /// (`Packed`).
     pub(super) fn starts(&self) -> MeshStarts {
         self.starts.clone()
     }
