@@ -37,15 +37,9 @@ impl Triangles {
         (&self.meshes[m], prim)
     }
 
-    /// What `MeshStarts::locate` needs, for leaves that keep no meshes
-    /// (`Packed`).
+    /// What `MeshStarts::locate` needs once the triangles are packed.
     pub(super) fn starts(&self) -> MeshStarts {
         self.starts.clone()
-    }
-
-    /// The meshes, for leaves that read them (`Gathered`).
-    pub(super) fn into_meshes(self) -> Vec<Arc<Mesh>> {
-        self.meshes
     }
 
     /// Bounds of the meshes' vertices, which hold every triangle's
@@ -200,11 +194,8 @@ pub struct Gathered {
 
 impl Gathered {
     pub(super) fn new(triangles: Triangles) -> Self {
-        let starts = triangles.starts();
-        Self {
-            meshes: triangles.into_meshes(),
-            starts,
-        }
+        let Triangles { meshes, starts, .. } = triangles;
+        Self { meshes, starts }
     }
 
     /// Where the leaf reads its triangles.

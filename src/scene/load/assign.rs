@@ -58,7 +58,7 @@ impl Ctx<'_> {
                     shapes.extend(self.obj_shapes(&span, sd, parts, palette, warnings)?);
                     continue;
                 }
-                Built::MeshFile { mesh, .. } => Geometry::Mesh(mesh.into()),
+                Built::MeshFile { mesh, .. } => Geometry::from(mesh),
                 Built::Geometry(g) => g,
             };
             let material = match &sd.material {
@@ -120,7 +120,7 @@ impl Ctx<'_> {
         for (mut mesh, m) in parts.parts {
             let nee = sd.nee.unwrap_or(true) && emissive(m);
             mesh.positions.reserve_exact(1);
-            let geometry = Geometry::Mesh(mesh.into());
+            let geometry = Geometry::from(mesh);
             shapes.push(self.shape(span, sd, geometry, material_base + m, nee, materials)?);
         }
         Ok(shapes)

@@ -175,15 +175,12 @@ impl Ctx<'_> {
                     }
                     None => None,
                 };
-                Geometry::Mesh(
-                    Mesh {
-                        positions,
-                        indices: vec![[0, 1, 2]],
-                        uvs,
-                        normals: None,
-                    }
-                    .into(),
-                )
+                Geometry::from(Mesh {
+                    positions,
+                    indices: vec![[0, 1, 2]],
+                    uvs,
+                    normals: None,
+                })
             }
             "mesh" => return self.mesh(span, sd, warnings),
             _ => unreachable!("shape kinds are checked above"),

@@ -35,7 +35,7 @@ impl<'e> Builder<'e, '_> {
             "obj" | "ply" | "serialized" => match self.mesh_file(&props, &m)? {
                 Some((mesh, path, groups)) => {
                     own_materials = (!groups.is_empty()).then_some((path, groups));
-                    Geometry::Mesh(mesh.into())
+                    Geometry::from(mesh)
                 }
                 None => {
                     props.objects("bsdf")?;
@@ -44,13 +44,13 @@ impl<'e> Builder<'e, '_> {
                 }
             },
             "rectangle" => rectangle(e, &m)?,
-            "cube" => Geometry::Mesh(checked(e, cube(&m))?.into()),
+            "cube" => Geometry::from(checked(e, cube(&m))?),
             "disk" => {
                 self.problems.warn(
                     &e.loc,
                     format!("<shape type=\"disk\">: substituted a {DISK_SEGMENTS}-sided polygon of the same area"),
                 )?;
-                Geometry::Mesh(checked(e, disk(&m))?.into())
+                Geometry::from(checked(e, disk(&m))?)
             }
             "sphere" => self.sphere(&props, &m, flip)?,
             other => {
@@ -200,7 +200,7 @@ impl<'e> Builder<'e, '_> {
         let mut pieces = Vec::with_capacity(parts.parts.len());
         for (mut mesh, m) in parts.parts {
             mesh.positions.reserve_exact(1);
-            let geometry = Geometry::Mesh(mesh.into());
+            let geometry = Geometry::from(mesh);
             let material = &self.materials[(material_base + m) as usize];
             let power = material.emission.max_element() * geometry.area().unwrap_or(0.0);
             if !power.is_finite() {
