@@ -83,9 +83,10 @@ impl QuadPack {
         if in_range == 0 {
             return (0, t, t, t);
         }
-        let rel = [0, 1, 2].map(|c| r.origin[c].add(t.mul(r.dir[c])).sub(p0[c]));
-        let u = dot(rel, load(&self.du));
-        let v = dot(rel, load(&self.dv));
+        let from_p0 = [0, 1, 2].map(|c| r.origin[c].sub(p0[c]));
+        let (du, dv) = (load(&self.du), load(&self.dv));
+        let u = dot(from_p0, du).add(t.mul(dot(r.dir, du)));
+        let v = dot(from_p0, dv).add(t.mul(dot(r.dir, dv)));
         let (zero, one) = (L::splat(0.0), L::splat(1.0));
         let inside = L::and(L::and(u.ge(zero), u.le(one)), L::and(v.ge(zero), v.le(one)));
         (in_range & L::bits(inside), t, u, v)

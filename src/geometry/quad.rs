@@ -72,13 +72,15 @@ impl Quad {
         if denom == 0.0 {
             return None;
         }
+        // u and v as affine functions of t, whose terms do not wait for
+        // the division.
         let t = (self.p0 - ray.origin).dot(self.normal) / denom;
         if !(t > ray.t_min && t < ray.t_max) {
             return None;
         }
-        let rel = ray.at(t) - self.p0;
-        let u = rel.dot(self.du);
-        let v = rel.dot(self.dv);
+        let from_p0 = ray.origin - self.p0;
+        let u = from_p0.dot(self.du) + t * ray.dir.dot(self.du);
+        let v = from_p0.dot(self.dv) + t * ray.dir.dot(self.dv);
         ((0.0..=1.0).contains(&u) && (0.0..=1.0).contains(&v)).then_some(PrimHit { t, u, v })
     }
 
