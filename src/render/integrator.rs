@@ -22,7 +22,7 @@ use super::normals::Normals;
 use crate::accel::Backend;
 use crate::bsdf::{Bsdf, Context};
 use crate::geometry::{PreliminaryHit, SurfacePoint};
-use crate::math::{spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec2, Vec3};
+use crate::math::{near_unit, spawn_ray, spawn_ray_to, Frame, Ray, Rgb, Vec2, Vec3};
 use crate::sampling::{power_heuristic, Dimension, Sampler};
 
 /// The largest f32 below 1.
@@ -147,7 +147,7 @@ impl<'a, B: Backend + ?Sized> Integrator<'a, B> {
                 break;
             }
             prev = next.pdf.map(|pdf| (sp.p, pdf));
-            ray = spawn_ray(sp.p, sp.p_err, sp.n, next.wi.normalize());
+            ray = spawn_ray(sp.p, sp.p_err, sp.n, near_unit(next.wi));
             counts.bounce += 1;
             depth += 1;
         }
