@@ -181,9 +181,9 @@ pub fn offset_ray_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 const NEAR_UNIT: f32 = 1.0 / (1 << 20) as f32;
 
 /// `v` at unit length: as it is when its length is within a few roundings
-/// of 1, as sampled directions are, else normalised. A square root and a
-/// division per bounce, skipped, took 5% of cornell-area's time
-/// (docs/performance.md).
+/// of 1, as sampled directions are, else normalised. Skipping a square
+/// root and a division per bounce saved about 4% of cornell-area's time
+/// (docs/performance.md, 2026-12-08).
 #[inline]
 pub fn near_unit(v: Vec3) -> Vec3 {
     let length_squared = v.length_squared();
