@@ -72,12 +72,12 @@ impl Quad {
         if denom == 0.0 {
             return None;
         }
-        // u and v as affine functions of t, whose terms do not wait for
-        // the division.
         let t = (self.p0 - ray.origin).dot(self.normal) / denom;
         if !(t > ray.t_min && t < ray.t_max) {
             return None;
         }
+        // u and v as affine functions of t, whose terms do not wait for
+        // the division.
         let from_p0 = ray.origin - self.p0;
         let u = from_p0.dot(self.du) + t * ray.dir.dot(self.du);
         let v = from_p0.dot(self.dv) + t * ray.dir.dot(self.dv);
